@@ -1,0 +1,34 @@
+# bouncebayes: everything starts from a fresh virtual environment in .venv
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: install demo test test-slow bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+## Run the main job on the bundled demo data
+demo: $(STAMP)
+	$(BIN)/bouncebayes demo --out demo-output
+
+## Install and run the test suite (slow statistical studies excluded)
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+## The slow statistical studies (simulation-based calibration etc.)
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -m slow
+
+## Speed benchmarks (not part of the tests)
+bench: $(STAMP)
+	$(BIN)/python benchmarks/forward.py
+
+clean:
+	rm -rf $(VENV) demo-output .pytest_cache

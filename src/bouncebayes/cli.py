@@ -1,0 +1,207 @@
+"""The ``bouncebayes`` command line: a thin shell that parses, calls the library, writes files.
+
+Each sub-command is an ``add_<name>_subcommand(subparsers)`` plus a ``run_<name>(args)``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+
+from threadpoolctl import threadpool_limits
+
+from . import __version__
+from .model import (NORMAL_LAWS, PAPER_BALL, STANDARD_GRAVITY, Ball, SimulationWarning, simulate,
+                    simulate_history)
+
+# Quantities printed by `simulate`, with units.
+_SIMULATE_ROWS = (
+    ("rebound_speed", "rebound speed", "m/s", "{:.6g}"),
+    ("rebound_angle", "rebound angle (from the normal)", "deg", "{:.6g}"),
+    ("rebound_spin", "rebound spin (CCW +)", "rad/s", "{:.6g}"),
+    ("contact_time", "contact time", "ms", "{:.6g}"),
+    ("peak_normal_force", "peak normal force", "N", "{:.6g}"),
+    ("peak_friction_force", "peak friction force", "N", "{:.6g}"),
+    ("max_overlap", "maximum overlap", "mm", "{:.6g}"),
+    ("regime", "contact point at separation", "", "{}"),
+)
+_JSON_KEYS = ("rebound_speed", "rebound_angle", "rebound_spin", "contact_time",
+              "peak_normal_force", "peak_friction_force", "regime")
+
+
+class UserError(Exception):
+    """An error in what the user asked for; printed without a traceback."""
+
+
+def _formatter(prog: str) -> argparse.HelpFormatter:
+    return argparse.ArgumentDefaultsHelpFormatter(prog, max_help_position=34, width=100)
+
+
+def add_ball_arguments(parser: argparse.ArgumentParser) -> None:
+    """Ball and surface options shared by the commands that simulate."""
+    g = parser.add_argument_group("ball and surface (SI units; defaults: the paper's 25.6 mm "
+                                  "polybutadiene ball, see README 'Default ball')")
+    g.add_argument("--diameter", type=float, default=PAPER_BALL.diameter, metavar="M",
+                   help="ball diameter in m")
+    g.add_argument("--mass", type=float, default=PAPER_BALL.mass, metavar="KG",
+                   help="ball mass in kg")
+    g.add_argument("--modulus", type=float, default=PAPER_BALL.youngs_modulus, metavar="PA",
+                   help="Young's modulus E in Pa")
+    g.add_argument("--poisson", type=float, default=PAPER_BALL.poisson_ratio, metavar="NU",
+                   help="Poisson ratio, in (-1, 0.5]")
+    g.add_argument("--inertia-factor", type=float, default=PAPER_BALL.inertia_factor,
+                   metavar="K", help="I = K m r^2: 0.4 solid sphere, 0.667 thin shell")
+    g.add_argument("--inclination", type=float, default=0.0, metavar="DEG",
+                   help="plane inclination to the horizontal in degrees, in (-90, 90); "
+                        "positive when the ball travels down-slope")
+    g.add_argument("--gravity", type=float, default=STANDARD_GRAVITY, metavar="M/S2",
+                   help="gravitational acceleration in m/s^2")
+    g.add_argument("--normal-law", choices=NORMAL_LAWS, default="kelvin-voigt",
+                   help="normal force: Hertz + linear viscous (kelvin-voigt, the paper's; "
+                        "eta in kg/s) or Hunt-Crossley (eta in s/m)")
+
+
+def ball_from_args(args: argparse.Namespace) -> Ball:
+    return Ball.from_diameter(args.diameter, mass=args.mass, youngs_modulus=args.modulus,
+                              poisson_ratio=args.poisson, inertia_factor=args.inertia_factor)
+
+
+def add_simulate_subcommand(sub) -> None:
+    p = sub.add_parser("simulate", formatter_class=_formatter,
+                       help="simulate one bounce and print its rebound, forces, contact time",
+                       description="Simulate one oblique bounce of a ball on a rigid plane "
+                                   "(Hertz contact, viscous damping, Coulomb friction) and print "
+                                   "the rebound, the contact time and the peak forces. Incident "
+                                   "values are those at first contact; rebound values those at "
+                                   "separation.")
+    p.add_argument("--mu", type=float, default=0.16, help="Coulomb friction coefficient (-)")
+    p.add_argument("--eta", type=float, default=1.35,
+                   help="damping coefficient: kg/s (kelvin-voigt) or s/m (hunt-crossley)")
+    p.add_argument("--speed", type=float, default=3.0, metavar="M/S",
+                   help="incident speed in m/s")
+    p.add_argument("--angle", type=float, default=60.0, metavar="DEG",
+                   help="incident angle from the plane normal in degrees, in [0, 90)")
+    p.add_argument("--spin", type=float, default=0.0, metavar="RAD/S",
+                   help="incident spin in rad/s, counter-clockwise positive with x along the "
+                        "direction of travel and y the outward normal")
+    add_ball_arguments(p)
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object instead of the table")
+    p.add_argument("--plot", metavar="FILE", type=Path,
+                   help="write a figure of the trajectory near contact and the force histories "
+                        "(.png, .svg or .pdf)")
+    p.set_defaults(run=run_simulate)
+
+
+def check_figure_path(path: Path | None) -> None:
+    """Fail before any work if a figure path has a format we cannot write."""
+    from .plots import FIGURE_FORMATS
+
+    if path is not None and path.suffix.lower() not in FIGURE_FORMATS:
+        raise UserError(f"figure file {str(path)!r} must end in one of "
+                        f"{', '.join(FIGURE_FORMATS)}")
+
+
+def run_simulate(args: argparse.Namespace) -> int:
+    check_figure_path(args.plot)
+    ball = ball_from_args(args)
+    kwargs = dict(mu=args.mu, eta=args.eta, speed=args.speed, angle=args.angle, spin=args.spin,
+                  inclination=args.inclination, normal_law=args.normal_law,
+                  gravity=args.gravity)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SimulationWarning)  # reported below as an error
+        result = simulate(ball, **kwargs)
+    if result.n_failed:
+        raise UserError(f"the bounce could not be solved: {result.failure_summary()}")
+    row = result.item()
+    if args.json:
+        print(json.dumps({k: row[k] for k in _JSON_KEYS}))
+    else:
+        print(format_bounce_table(row, args))
+    if args.plot:
+        from .plots import plot_bounce, save_figure
+
+        history = simulate_history(ball, **kwargs)
+        title = (f"mu = {args.mu:g}, eta = {args.eta:g}, V = {args.speed:g} m/s, "
+                 f"angle = {args.angle:g} deg, spin = {args.spin:g} rad/s")
+        path = save_figure(plot_bounce(history, title=title), args.plot)
+        print(f"figure written to {path}", file=sys.stderr)
+    return 0
+
+
+def format_bounce_table(row: dict, args: argparse.Namespace) -> str:
+    scale = {"contact_time": 1e3, "max_overlap": 1e3}
+    lines = [f"bounce: mu = {args.mu:g}, eta = {args.eta:g}, incident {args.speed:g} m/s at "
+             f"{args.angle:g} deg, spin {args.spin:g} rad/s ({args.normal_law})"]
+    for key, label, unit, fmt in _SIMULATE_ROWS:
+        value = row[key] * scale[key] if key in scale else row[key]
+        lines.append(f"  {label:<34} {fmt.format(value):>12} {unit}")
+    return "\n".join(lines)
+
+
+def add_demo_subcommand(sub) -> None:
+    p = sub.add_parser("demo", formatter_class=_formatter,
+                       help="run the main job on the bundled demo data",
+                       description="Run bouncebayes on the bundled demo: for now, simulate the "
+                                   "paper's bounce (mu = 0.16, eta = 1.35 kg/s, 3 m/s at 60 deg) "
+                                   "and write its figure and JSON summary.")
+    p.add_argument("--out", type=Path, default=Path("demo-output"), metavar="DIR",
+                   help="output folder")
+    p.set_defaults(run=run_demo)
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    from ._io import write_json
+    from .plots import plot_bounce, save_figure
+
+    kwargs = dict(mu=0.16, eta=1.35, speed=3.0, angle=60.0)
+    history = simulate_history(PAPER_BALL, **kwargs)
+    row = history.bounce.item()
+    figure = save_figure(plot_bounce(history, title="The paper's bounce: mu = 0.16, "
+                                                    "eta = 1.35 kg/s, 3 m/s at 60 deg"),
+                         args.out / "bounce.png")
+    write_json(args.out / "bounce.json", {"inputs": kwargs, "results": row,
+                                          "version": __version__})
+    print(format_bounce_table(row, argparse.Namespace(normal_law="kelvin-voigt", spin=0.0,
+                                                      **kwargs)))
+    print(f"\nfigure: {figure}\nsummary: {args.out / 'bounce.json'}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="bouncebayes", formatter_class=_formatter,
+        description="Contact parameters (friction, viscous damping) of a ball from how it "
+                    "bounces. Units are SI, angles in degrees.")
+    parser.add_argument("--version", action="version", version=f"bouncebayes {__version__}")
+    parser.add_argument("--traceback", action="store_true",
+                        help="show the full traceback of an error (for bug reports)")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    add_simulate_subcommand(sub)
+    add_demo_subcommand(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``bouncebayes`` command; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    # numba's threads beside a multi-threaded BLAS oversubscribe the cores (10x slowdown measured).
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    with threadpool_limits(limits=1, user_api="blas"):
+        try:
+            return args.run(args)
+        except (UserError, ValueError, TypeError) as exc:
+            if args.traceback:
+                raise
+            print(f"bouncebayes {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

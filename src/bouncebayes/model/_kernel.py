@@ -1,0 +1,418 @@
+"""Compiled contact-phase solver: Dormand–Prince 5(4) with dense output and event location.
+
+Written by hand (not SciPy's ``solve_ivp``) because the solver must run inside a numba ``prange``
+loop over many parameter sets, and no maintained library offers an adaptive Runge–Kutta method
+callable from numba with event location and a switch of right-hand side at each event (the
+slip/roll transitions of Coulomb friction). The tableau and the dense-output matrix are the ones
+SciPy's ``RK45`` uses (Dormand & Prince 1980; Shampine 1986); ``tests/test_model_kernel.py`` checks
+them against ``scipy.integrate.RK45`` so that they cannot drift.
+
+Everything here works on plain float arrays with fixed layouts (the ``P_*``, ``S_*`` and ``R_*``
+indices); the Python layer in ``_simulate.py`` builds and reads them.
+
+State (plane-aligned frame, MODEL.md §1): ``x`` along the plane since first contact, overlap
+``d = r - y`` (positive in contact), tangential velocity ``u``, normal velocity ``vn = y'``
+(outward positive) and spin ``w`` (counter-clockwise positive). The tangential phase is
+``+1``/``-1`` (sliding with slip velocity ``s = u + r w`` of that sign) or ``0`` (rolling, s = 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+# Parameter vector layout.
+P_R, P_M, P_K, P_I, P_MU, P_ETA, P_GX, P_GY, P_LAW, P_DSCALE = range(10)
+N_PARAMS = 10
+# State layout.
+S_X, S_D, S_U, S_V, S_W = range(5)
+N_STATE = 5
+# Result layout.
+(R_TC, R_X, R_D, R_U, R_V, R_W, R_FN_PEAK, R_FT_PEAK, R_D_MAX, R_PHASE, R_STEPS,
+ R_SWITCHES, R_T_FN_PEAK) = range(13)
+N_RESULTS = 13
+# History columns: state, then normal force, friction force, phase.
+H_FN, H_FT, H_PHASE = 5, 6, 7
+N_HISTORY = 8
+
+LAW_KELVIN_VOIGT = 0
+LAW_HUNT_CROSSLEY = 1
+
+# Per-element status codes (mirrored by ``bouncebayes.model.Status``).
+ST_OK = 0
+ST_INVALID = 1
+ST_NO_SEPARATION = 2
+ST_MAX_STEPS = 3
+ST_STEP_UNDERFLOW = 4
+
+# Events.
+EV_NONE, EV_SEPARATION, EV_STICK, EV_SLIP, EV_MAX_OVERLAP = 0, 1, 2, 3, 4
+
+# Dormand–Prince 5(4): the coefficients of scipy.integrate.RK45.
+A21 = 1.0 / 5.0
+A31, A32 = 3.0 / 40.0, 9.0 / 40.0
+A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
+A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
+A61, A62, A63, A64, A65 = (9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0,
+                           -5103.0 / 18656.0)
+B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
+E1, E3, E4, E5, E6, E7 = (-71.0 / 57600.0, 71.0 / 16695.0, -71.0 / 1920.0, 17253.0 / 339200.0,
+                          -22.0 / 525.0, 1.0 / 40.0)
+DENSE = np.array([
+    [1.0, -8048581381.0 / 2820520608.0, 8663915743.0 / 2820520608.0,
+     -12715105075.0 / 11282082432.0],
+    [0.0, 0.0, 0.0, 0.0],
+    [0.0, 131558114200.0 / 32700410799.0, -68118460800.0 / 10900136933.0,
+     87487479700.0 / 32700410799.0],
+    [0.0, -1754552775.0 / 470086768.0, 14199869525.0 / 1410260304.0,
+     -10690763975.0 / 1880347072.0],
+    [0.0, 127303824393.0 / 49829197408.0, -318862633887.0 / 49829197408.0,
+     701980252875.0 / 199316789632.0],
+    [0.0, -282668133.0 / 205662961.0, 2019193451.0 / 616988883.0,
+     -1453857185.0 / 822651844.0],
+    [0.0, 40617522.0 / 29380423.0, -110615467.0 / 29380423.0, 69997945.0 / 29380423.0],
+])
+SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+ROOT_ITERATIONS = 200
+GOLDEN_ITERATIONS = 60
+
+
+@njit(cache=True, inline="always")
+def normal_force(d, vn, p):
+    """Clamped normal force: Hertz + viscous (Kelvin–Voigt) or Hunt–Crossley, never pulling."""
+    if d <= 0.0:
+        return 0.0
+    elastic = p[P_K] * d * math.sqrt(d)
+    if p[P_LAW] == LAW_KELVIN_VOIGT:
+        force = elastic - p[P_ETA] * vn  # eta * (overlap rate), overlap rate = -vn
+    else:
+        force = elastic * (1.0 - 1.5 * p[P_ETA] * vn)
+    return max(force, 0.0)
+
+
+@njit(cache=True, inline="always")
+def rolling_friction(p):
+    """Friction that keeps the slip velocity at zero against the tangential gravity."""
+    return -p[P_GX] / (1.0 / p[P_M] + p[P_R] * p[P_R] / p[P_I])
+
+
+@njit(cache=True, inline="always")
+def friction_force(fn, phase, p):
+    if phase == 0:
+        return rolling_friction(p)
+    return -p[P_MU] * fn * phase
+
+
+@njit(cache=True)
+def rhs(y, p, phase, out):
+    """Equations of motion in contact (MODEL.md §2) for the given tangential phase."""
+    fn = normal_force(y[S_D], y[S_V], p)
+    ft = friction_force(fn, phase, p)
+    out[S_X] = y[S_U]
+    out[S_D] = -y[S_V]
+    out[S_U] = ft / p[P_M] + p[P_GX]
+    out[S_V] = fn / p[P_M] - p[P_GY]
+    out[S_W] = p[P_R] * ft / p[P_I]
+
+
+@njit(cache=True)
+def normal_force_rate(y, dy, p):
+    """Time derivative of the (unclamped) normal force, for locating its maximum."""
+    d = y[S_D]
+    if d <= 0.0:
+        return 0.0
+    sq = math.sqrt(d)
+    rate_elastic = 1.5 * p[P_K] * sq * (-y[S_V])
+    if p[P_LAW] == LAW_KELVIN_VOIGT:
+        return rate_elastic - p[P_ETA] * dy[S_V]
+    fac = 1.0 - 1.5 * p[P_ETA] * y[S_V]
+    return rate_elastic * fac - p[P_K] * d * sq * 1.5 * p[P_ETA] * dy[S_V]
+
+
+@njit(cache=True)
+def event_value(kind, y, p, phase):
+    """Event functions: positive before the event, crossing zero at it."""
+    if kind == EV_SEPARATION:
+        d = y[S_D]
+        signed = d * math.sqrt(abs(d))  # continuous through d = 0
+        if p[P_LAW] == LAW_KELVIN_VOIGT:
+            scale = p[P_DSCALE] * math.sqrt(p[P_DSCALE])
+            return (signed - p[P_ETA] / p[P_K] * y[S_V]) / scale
+        return min(d / p[P_DSCALE], 1.0 - 1.5 * p[P_ETA] * y[S_V])
+    if kind == EV_STICK:
+        return (y[S_U] + p[P_R] * y[S_W]) * phase
+    if kind == EV_MAX_OVERLAP:
+        return -y[S_V]
+    fn = normal_force(y[S_D], y[S_V], p)
+    return p[P_MU] * fn - abs(rolling_friction(p))
+
+
+@njit(cache=True, inline="always")
+def interpolate(y0, q, h, theta, out):
+    """Dense output y(t0 + theta h) = y0 + h * Q @ [theta, theta^2, theta^3, theta^4]."""
+    t2 = theta * theta
+    t3 = t2 * theta
+    t4 = t3 * theta
+    for i in range(N_STATE):
+        out[i] = y0[i] + h * (q[i, 0] * theta + q[i, 1] * t2 + q[i, 2] * t3 + q[i, 3] * t4)
+
+
+@njit(cache=True)
+def find_root(kind, y0, q, h, p, phase, ga, gb, a, b, work):
+    """Root of an event function on the dense output, theta in [a, b] (Illinois regula falsi)."""
+    side = 0
+    for _ in range(ROOT_ITERATIONS):
+        if b - a <= 4e-16 * max(1.0, b):
+            break
+        c = (a * gb - b * ga) / (gb - ga)
+        if not (a < c < b):
+            c = 0.5 * (a + b)
+        interpolate(y0, q, h, c, work)
+        gc = event_value(kind, work, p, phase)
+        if gc > 0.0:
+            a, ga = c, gc
+            if side == 1:
+                gb *= 0.5
+            side = 1
+        else:
+            b, gb = c, gc
+            if side == -1:
+                ga *= 0.5
+            side = -1
+    return b  # the first point where the event has happened
+
+
+@njit(cache=True)
+def golden_max_force(y0, q, h, p, a, b, work):
+    """Maximum of the normal force on the dense output over theta in [a, b]."""
+    inv_phi = 0.6180339887498949
+    c = b - inv_phi * (b - a)
+    d = a + inv_phi * (b - a)
+    interpolate(y0, q, h, c, work)
+    fc = normal_force(work[S_D], work[S_V], p)
+    interpolate(y0, q, h, d, work)
+    fd = normal_force(work[S_D], work[S_V], p)
+    for _ in range(GOLDEN_ITERATIONS):
+        if fc > fd:
+            b, d, fd = d, c, fc
+            c = b - inv_phi * (b - a)
+            interpolate(y0, q, h, c, work)
+            fc = normal_force(work[S_D], work[S_V], p)
+        else:
+            a, c, fc = c, d, fd
+            d = a + inv_phi * (b - a)
+            interpolate(y0, q, h, d, work)
+            fd = normal_force(work[S_D], work[S_V], p)
+    if fc > fd:
+        return fc, c
+    return fd, d
+
+
+@njit(cache=True)
+def initial_phase(y, p):
+    s = y[S_U] + p[P_R] * y[S_W]
+    if s > 0.0:
+        return 1
+    if s < 0.0:
+        return -1
+    return phase_after_stick(y, p)
+
+
+@njit(cache=True)
+def phase_after_stick(y, p):
+    """Roll if Coulomb friction can hold the contact point still, else slide with gravity."""
+    fn = normal_force(y[S_D], y[S_V], p)
+    need = rolling_friction(p)
+    if abs(need) <= p[P_MU] * fn:
+        return 0
+    return 1 if p[P_GX] > 0.0 else -1
+
+
+@njit(cache=True)
+def record_history(t0, t1, y0, q, h, p, phase, t_out, hist, io, work):
+    """Write dense-output samples for the requested times in (t0, t1]."""
+    while io < t_out.shape[0] and t_out[io] <= t1:
+        if t_out[io] >= t0:
+            theta = (t_out[io] - t0) / h if h > 0.0 else 0.0
+            interpolate(y0, q, h, theta, work)
+            fn = normal_force(work[S_D], work[S_V], p)
+            for j in range(N_STATE):
+                hist[io, j] = work[j]
+            hist[io, H_FN] = fn
+            hist[io, H_FT] = friction_force(fn, phase, p)
+            hist[io, H_PHASE] = phase
+        io += 1
+    return io
+
+
+@njit(cache=True)
+def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist, res):
+    """Integrate one contact phase from first touch to separation; fill ``res``; return status."""
+    y = y0.copy()
+    y1 = np.empty(N_STATE)
+    work = np.empty(N_STATE)
+    k = np.empty((7, N_STATE))
+    q = np.empty((N_STATE, 4))
+    tmp = np.empty(N_STATE)
+    phase = initial_phase(y, p)
+    rhs(y, p, phase, k[0])
+    t = 0.0
+    h = min(1e-4 * h_max, h_max)
+    h_min = 1e-12 * h_max
+    fn0 = normal_force(y[S_D], y[S_V], p)
+    fn_peak, t_fn_peak = fn0, 0.0
+    ft_peak = abs(friction_force(fn0, phase, p))
+    d_max = max(y[S_D], 0.0)
+    n_steps = 0
+    n_switch = 0
+    io = 0
+    while io < t_out.shape[0] and t_out[io] <= 0.0:  # samples at the moment of first touch
+        for j in range(N_STATE):
+            hist[io, j] = y[j]
+        hist[io, H_FN] = fn0
+        hist[io, H_FT] = friction_force(fn0, phase, p)
+        hist[io, H_PHASE] = phase
+        io += 1
+    while True:
+        if n_steps >= max_steps:
+            return ST_MAX_STEPS
+        if t >= t_max:
+            return ST_NO_SEPARATION
+        h = min(h, h_max)
+        # Dormand–Prince stages.
+        for i in range(N_STATE):
+            tmp[i] = y[i] + h * A21 * k[0, i]
+        rhs(tmp, p, phase, k[1])
+        for i in range(N_STATE):
+            tmp[i] = y[i] + h * (A31 * k[0, i] + A32 * k[1, i])
+        rhs(tmp, p, phase, k[2])
+        for i in range(N_STATE):
+            tmp[i] = y[i] + h * (A41 * k[0, i] + A42 * k[1, i] + A43 * k[2, i])
+        rhs(tmp, p, phase, k[3])
+        for i in range(N_STATE):
+            tmp[i] = y[i] + h * (A51 * k[0, i] + A52 * k[1, i] + A53 * k[2, i] + A54 * k[3, i])
+        rhs(tmp, p, phase, k[4])
+        for i in range(N_STATE):
+            tmp[i] = y[i] + h * (A61 * k[0, i] + A62 * k[1, i] + A63 * k[2, i] + A64 * k[3, i]
+                                 + A65 * k[4, i])
+        rhs(tmp, p, phase, k[5])
+        for i in range(N_STATE):
+            y1[i] = y[i] + h * (B1 * k[0, i] + B3 * k[2, i] + B4 * k[3, i] + B5 * k[4, i]
+                                + B6 * k[5, i])
+        rhs(y1, p, phase, k[6])
+        err = 0.0
+        for i in range(N_STATE):
+            e = h * (E1 * k[0, i] + E3 * k[2, i] + E4 * k[3, i] + E5 * k[4, i] + E6 * k[5, i]
+                     + E7 * k[6, i])
+            sc = atol * scale[i] + rtol * max(abs(y[i]), abs(y1[i]))
+            err += (e / sc) ** 2
+        err = math.sqrt(err / N_STATE)
+        if not (err <= 1.0):  # also catches NaN
+            if err != err:
+                factor = MIN_FACTOR
+            else:
+                factor = max(MIN_FACTOR, SAFETY * err ** -0.2)
+            h *= factor
+            if h < h_min:
+                return ST_STEP_UNDERFLOW
+            continue
+        n_steps += 1
+        for i in range(N_STATE):
+            for j in range(4):
+                acc = 0.0
+                for s in range(7):
+                    acc += k[s, i] * DENSE[s, j]
+                q[i, j] = acc
+        # Earliest event in the step.
+        theta_end = 1.0
+        event = EV_NONE
+        if y1[S_V] > 0.0:
+            ga = event_value(EV_SEPARATION, y, p, phase)
+            gb = event_value(EV_SEPARATION, y1, p, phase)
+            if ga > 0.0 and gb <= 0.0:
+                theta_end = find_root(EV_SEPARATION, y, q, h, p, phase, ga, gb, 0.0, 1.0, work)
+                event = EV_SEPARATION
+        if phase != 0:
+            kind = EV_STICK
+        elif p[P_GX] != 0.0:
+            kind = EV_SLIP
+        else:
+            kind = EV_NONE
+        if kind != EV_NONE:
+            ga = event_value(kind, y, p, phase)
+            interpolate(y, q, h, theta_end, work)
+            gb = event_value(kind, work, p, phase)
+            start_ok = ga > 0.0 if kind == EV_STICK else ga >= 0.0
+            end_hit = gb <= 0.0 if kind == EV_STICK else gb < 0.0
+            if start_ok and end_hit:
+                theta_end = find_root(kind, y, q, h, p, phase, ga, gb, 0.0, theta_end, work)
+                event = kind
+        if event != EV_NONE:
+            interpolate(y, q, h, theta_end, y1)
+            rhs(y1, p, phase, k[6])
+        t_end = t + theta_end * h
+        # Maximum overlap where the normal velocity changes sign.
+        if y[S_V] < 0.0 and y1[S_V] >= 0.0:
+            th = find_root(EV_MAX_OVERLAP, y, q, h, p, phase, -y[S_V], -y1[S_V], 0.0, theta_end,
+                           work)
+            interpolate(y, q, h, th, work)
+            d_max = max(d_max, work[S_D])
+        d_max = max(d_max, y1[S_D])
+        # Peak normal (and friction) force: the end point, or an interior maximum.
+        fn1 = normal_force(y1[S_D], y1[S_V], p)
+        if fn1 > fn_peak:
+            fn_peak, t_fn_peak = fn1, t_end
+        ft_peak = max(ft_peak, abs(friction_force(fn1, phase, p)))
+        if normal_force_rate(y, k[0], p) > 0.0 and normal_force_rate(y1, k[6], p) < 0.0:
+            fmax, th = golden_max_force(y, q, h, p, 0.0, theta_end, work)
+            if fmax > fn_peak:
+                fn_peak, t_fn_peak = fmax, t + th * h
+            ft_peak = max(ft_peak, abs(friction_force(fmax, phase, p)))
+        if t_out.shape[0] > 0:
+            io = record_history(t, t_end, y, q, h, p, phase, t_out, hist, io, work)
+        t = t_end
+        for i in range(N_STATE):
+            y[i] = y1[i]
+        if event == EV_SEPARATION:
+            res[R_TC] = t
+            for i in range(N_STATE):
+                res[R_X + i] = y[i]
+            res[R_FN_PEAK] = fn_peak
+            res[R_FT_PEAK] = ft_peak
+            res[R_D_MAX] = d_max
+            res[R_PHASE] = phase
+            res[R_STEPS] = n_steps
+            res[R_SWITCHES] = n_switch
+            res[R_T_FN_PEAK] = t_fn_peak
+            return ST_OK
+        if event == EV_STICK:
+            phase = phase_after_stick(y, p)
+            n_switch += 1
+        elif event == EV_SLIP:
+            phase = 1 if p[P_GX] > 0.0 else -1
+            n_switch += 1
+        if event != EV_NONE:
+            rhs(y, p, phase, k[0])
+            fn1 = normal_force(y[S_D], y[S_V], p)
+            ft_peak = max(ft_peak, abs(friction_force(fn1, phase, p)))
+        else:
+            for i in range(N_STATE):
+                k[0, i] = k[6, i]
+        if err == 0.0:
+            factor = MAX_FACTOR
+        else:
+            factor = min(MAX_FACTOR, SAFETY * err ** -0.2)
+        h *= factor
+
+
+@njit(cache=True, parallel=True)
+def solve_batch(params, y0, scale, h_max, t_max, rtol, atol, max_steps, status, res):
+    """Solve every element whose status is still OK, in parallel over elements."""
+    no_times = np.empty(0)
+    no_hist = np.empty((0, N_HISTORY))
+    for i in prange(params.shape[0]):
+        if status[i] == ST_OK:
+            status[i] = solve_contact(params[i], y0[i], scale[i], h_max[i], t_max[i], rtol, atol,
+                                      max_steps, no_times, no_hist, res[i])

@@ -1,0 +1,274 @@
+"""Batched forward model: validate inputs once, call the compiled solver, label the results."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, fields
+from enum import IntEnum
+from typing import Literal
+
+import numpy as np
+
+from .._validate import (as_float_array, broadcast, check_array, check_choice, check_scalar,
+                         in_range_mask)
+from . import _kernel as K
+from ._closed_form import HERTZ_CONTACT_TIME_CONSTANT
+from ._config import PAPER_BALL, STANDARD_GRAVITY, Ball, SolverConfig, check_normal_law
+
+Errors = Literal["raise", "flag"]
+_LAW_CODES = {"kelvin-voigt": K.LAW_KELVIN_VOIGT, "hunt-crossley": K.LAW_HUNT_CROSSLEY}
+
+
+class Status(IntEnum):
+    """Outcome of one bounce; ``Status(code).message`` says what happened and what to do."""
+
+    OK = K.ST_OK
+    INVALID_INPUT = K.ST_INVALID
+    NO_SEPARATION = K.ST_NO_SEPARATION
+    MAX_STEPS = K.ST_MAX_STEPS
+    STEP_UNDERFLOW = K.ST_STEP_UNDERFLOW
+
+    @property
+    def message(self) -> str:
+        return _STATUS_MESSAGES[self]
+
+
+_STATUS_MESSAGES = {
+    Status.OK: "solved",
+    Status.INVALID_INPUT: "input outside the physical domain (e.g. negative eta or speed); "
+                          "the element was not simulated",
+    Status.NO_SEPARATION: "the ball did not leave the surface within "
+                          "SolverConfig.max_contact_time_factor Hertz contact times: damping "
+                          "this strong stops it on the surface; raise the factor if a long "
+                          "contact is expected",
+    Status.MAX_STEPS: "the solver used SolverConfig.max_steps steps without finishing; raise "
+                      "max_steps or loosen rtol/atol",
+    Status.STEP_UNDERFLOW: "the step size fell below 1e-12 of the contact time scale "
+                           "(the equations are too stiff at these parameters)",
+}
+
+
+class SimulationWarning(UserWarning):
+    """Some bounces of a batch could not be solved; their results are NaN with a status."""
+
+
+@dataclass(frozen=True)
+class Bounces:
+    """Per-bounce results of :func:`simulate`, arrays of the broadcast input shape.
+
+    Velocities are in the plane-aligned frame at the moment of separation; the rebound angle is
+    measured from the plane normal in degrees (positive: the ball keeps moving forward); spin is
+    counter-clockwise positive. Failed elements hold NaN and a non-zero ``status``.
+    """
+
+    rebound_speed: np.ndarray  #: m/s
+    rebound_angle: np.ndarray  #: deg from the normal
+    rebound_spin: np.ndarray  #: rad/s
+    rebound_tangential_velocity: np.ndarray  #: m/s
+    rebound_normal_velocity: np.ndarray  #: m/s, outward
+    contact_time: np.ndarray  #: s
+    peak_normal_force: np.ndarray  #: N
+    peak_friction_force: np.ndarray  #: N (magnitude)
+    max_overlap: np.ndarray  #: m
+    separation_overlap: np.ndarray  #: m, overlap when the normal force vanished
+    time_of_peak_normal_force: np.ndarray  #: s after first contact
+    separation_displacement: np.ndarray  #: m, along the plane during contact
+    rolling: np.ndarray  #: bool, the contact point was not slipping at separation
+    status: np.ndarray  #: int8 codes of :class:`Status`
+    n_steps: np.ndarray  #: accepted solver steps
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self.status.shape
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Boolean mask of solved bounces."""
+        return self.status == Status.OK
+
+    @property
+    def n_failed(self) -> int:
+        return int(np.count_nonzero(~self.ok))
+
+    @property
+    def regime(self) -> np.ndarray:
+        """``"roll"``, ``"slip"`` or ``"failed"`` per bounce."""
+        return np.where(~self.ok, "failed", np.where(self.rolling, "roll", "slip"))
+
+    def failure_summary(self) -> str:
+        """Counts of failed bounces by reason, with what to do; empty when all succeeded."""
+        codes, counts = np.unique(self.status[~self.ok], return_counts=True)
+        return "; ".join(f"{n} x {Status(c).name}: {Status(c).message}"
+                         for c, n in zip(codes, counts, strict=True))
+
+    def item(self, index=()) -> dict[str, float | str]:
+        """The results of one bounce as plain Python values (for JSON and tables)."""
+        row = {f.name: getattr(self, f.name)[index] for f in fields(self)}
+        out: dict[str, float | str] = {k: float(v) for k, v in row.items()
+                                       if k not in ("rolling", "status", "n_steps")}
+        out["regime"] = str(self.regime[index])
+        out["status"] = Status(int(row["status"])).name
+        out["n_steps"] = int(row["n_steps"])
+        return out
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    params: np.ndarray
+    y0: np.ndarray
+    scale: np.ndarray
+    h_max: np.ndarray
+    t_max: np.ndarray
+    status: np.ndarray
+    shape: tuple[int, ...]
+    gravity_x: np.ndarray
+    gravity_y: np.ndarray
+    radius: float
+
+
+# name, unit, low, high, low_open, high_open
+_ARG_RANGES = {
+    "mu": ("", 0.0, None, False, False),
+    "eta": ("kg/s or s/m", 0.0, None, False, False),
+    "speed": ("m/s", 0.0, None, True, False),
+    "angle": ("deg", 0.0, 90.0, False, True),
+    "spin": ("rad/s", None, None, False, False),
+    "inclination": ("deg", -90.0, 90.0, True, True),
+    "youngs_modulus": ("Pa", 0.0, None, True, False),
+}
+_BENIGN = {"mu": 0.0, "eta": 0.0, "speed": 1.0, "angle": 0.0, "spin": 0.0, "inclination": 0.0,
+           "youngs_modulus": 1.0e6}
+
+
+def _check_inputs(values: dict, errors: Errors) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Validate and broadcast; in ``flag`` mode mark bad elements instead of raising."""
+    if errors == "raise":
+        arrays = {k: check_array(k, v, unit=_ARG_RANGES[k][0], low=_ARG_RANGES[k][1],
+                                 high=_ARG_RANGES[k][2], low_open=_ARG_RANGES[k][3],
+                                 high_open=_ARG_RANGES[k][4]) for k, v in values.items()}
+        arrays = broadcast(**arrays)
+        return arrays, np.zeros(next(iter(arrays.values())).shape, dtype=bool)
+    arrays = broadcast(**{k: as_float_array(k, v) for k, v in values.items()})
+    bad = np.zeros(next(iter(arrays.values())).shape, dtype=bool)
+    for k, arr in arrays.items():
+        ok = in_range_mask(arr, *_ARG_RANGES[k][1:])
+        bad |= ~ok
+        arrays[k] = np.where(ok, arr, _BENIGN[k])
+    return arrays, bad
+
+
+def _prepare(ball: Ball, values: dict, normal_law: str, gravity: float, solver: SolverConfig,
+             errors: Errors) -> _Prepared:
+    arrays, bad = _check_inputs(values, errors)
+    shape = bad.shape
+    a = {k: np.ascontiguousarray(v, dtype=float).ravel() for k, v in arrays.items()}
+    n = bad.size
+    r, m = ball.radius, ball.mass
+    e_star = a["youngs_modulus"] / (1.0 - ball.poisson_ratio**2)
+    k = 4.0 / 3.0 * math.sqrt(r) * e_star
+    theta = np.radians(a["angle"])
+    incl = np.radians(a["inclination"])
+    speed = a["speed"]
+    v_normal = speed * np.cos(theta)
+    d_scale = (m * v_normal**2 / k) ** 0.4
+    t_hertz = HERTZ_CONTACT_TIME_CONSTANT * (m**2 / (r * e_star**2 * v_normal)) ** 0.2
+    params = np.empty((n, K.N_PARAMS))
+    params[:, K.P_R] = r
+    params[:, K.P_M] = m
+    params[:, K.P_K] = k
+    params[:, K.P_I] = ball.moment_of_inertia
+    params[:, K.P_MU] = a["mu"]
+    params[:, K.P_ETA] = a["eta"]
+    params[:, K.P_GX] = gravity * np.sin(incl)
+    params[:, K.P_GY] = gravity * np.cos(incl)
+    params[:, K.P_LAW] = _LAW_CODES[normal_law]
+    params[:, K.P_DSCALE] = d_scale
+    y0 = np.zeros((n, K.N_STATE))
+    y0[:, K.S_U] = speed * np.sin(theta)
+    y0[:, K.S_V] = -v_normal
+    y0[:, K.S_W] = a["spin"]
+    scale = np.column_stack([d_scale, d_scale, speed, speed, speed / r])
+    status = np.where(bad.ravel(), K.ST_INVALID, K.ST_OK).astype(np.int8)
+    return _Prepared(params, y0, scale, t_hertz / 10.0,
+                     solver.max_contact_time_factor * t_hertz, status, shape,
+                     params[:, K.P_GX], params[:, K.P_GY], r)
+
+
+def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bounces:
+    ok = status == K.ST_OK
+    res = np.where(ok[:, None], res, np.nan)
+    u, vn, w = res[:, K.R_U], res[:, K.R_V], res[:, K.R_W]
+
+    def shaped(x):
+        return np.reshape(x, shape)
+
+    return Bounces(
+        rebound_speed=shaped(np.hypot(u, vn)),
+        rebound_angle=shaped(np.degrees(np.arctan2(u, vn))),
+        rebound_spin=shaped(w),
+        rebound_tangential_velocity=shaped(u),
+        rebound_normal_velocity=shaped(vn),
+        contact_time=shaped(res[:, K.R_TC]),
+        peak_normal_force=shaped(res[:, K.R_FN_PEAK]),
+        peak_friction_force=shaped(res[:, K.R_FT_PEAK]),
+        max_overlap=shaped(res[:, K.R_D_MAX]),
+        separation_overlap=shaped(res[:, K.R_D]),
+        time_of_peak_normal_force=shaped(res[:, K.R_T_FN_PEAK]),
+        separation_displacement=shaped(res[:, K.R_X]),
+        rolling=shaped(ok & (res[:, K.R_PHASE] == 0)),
+        status=shaped(status),
+        n_steps=shaped(np.where(ok, np.nan_to_num(res[:, K.R_STEPS]), 0).astype(np.int64)),
+    )
+
+
+def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclination=0.0,
+             youngs_modulus=None, normal_law: str = "kelvin-voigt",
+             gravity: float = STANDARD_GRAVITY, solver: SolverConfig | None = None,
+             errors: Errors = "raise") -> Bounces:
+    """Simulate oblique bounces of ``ball`` on a rigid plane, batched over broadcast arrays.
+
+    Free flight is ballistic (closed form); only the contact is integrated, from first touch
+    (where ``speed``, ``angle`` and ``spin`` are given) to separation (where the rebound is
+    reported). Every numeric argument may be an array; all broadcast together.
+
+    Arguments:
+        ball: the ball (radius, mass, modulus, Poisson ratio, inertia factor).
+        mu: Coulomb friction coefficient, >= 0.
+        eta: damping coefficient, >= 0: kg/s for ``"kelvin-voigt"`` (F_n = k d^1.5 + eta d'),
+            s/m for ``"hunt-crossley"`` (F_n = k d^1.5 (1 + 1.5 eta d')).
+        speed: incident speed at first contact, m/s, > 0.
+        angle: incident angle from the plane normal, degrees, in [0, 90).
+        spin: incident spin, rad/s, counter-clockwise positive (x forward, y outward).
+        inclination: plane inclination to the horizontal, degrees, in (-90, 90); positive when
+            the ball travels down-slope (tangential gravity g sin(inclination) along +x).
+        youngs_modulus: optional Young's modulus in Pa overriding ``ball.youngs_modulus``
+            element-wise (for inferring it).
+        normal_law: ``"kelvin-voigt"`` (the paper's) or ``"hunt-crossley"``; forces are
+            clamped at >= 0 (a contact never pulls) and the ball separates where F_n returns
+            to zero.
+        gravity: gravitational acceleration, m/s^2, >= 0.
+        solver: tolerances and limits (:class:`SolverConfig`).
+        errors: ``"raise"``: invalid input raises ``ValueError`` and unsolved bounces give a
+            :class:`SimulationWarning`; ``"flag"``: both only set the element's ``status``.
+
+    Returns:
+        :class:`Bounces` with one entry per broadcast element.
+    """
+    check_choice("errors", errors, ("raise", "flag"))
+    normal_law = check_normal_law(normal_law)
+    gravity = check_scalar("gravity", gravity, unit="m/s^2", low=0.0)
+    solver = SolverConfig() if solver is None else solver
+    values = {"mu": mu, "eta": eta, "speed": speed, "angle": angle, "spin": spin,
+              "inclination": inclination,
+              "youngs_modulus": ball.youngs_modulus if youngs_modulus is None else youngs_modulus}
+    prep = _prepare(ball, values, normal_law, gravity, solver, errors)
+    res = np.full((prep.status.size, K.N_RESULTS), np.nan)
+    status = prep.status.copy()
+    K.solve_batch(prep.params, prep.y0, prep.scale, prep.h_max, prep.t_max, solver.rtol,
+                  solver.atol, solver.max_steps, status, res)
+    out = _assemble(res, status, prep.shape)
+    if errors == "raise" and out.n_failed:
+        warnings.warn(f"{out.n_failed} of {status.size} bounces could not be solved: "
+                      f"{out.failure_summary()}", SimulationWarning, stacklevel=2)
+    return out
