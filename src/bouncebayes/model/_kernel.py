@@ -81,8 +81,12 @@ GOLDEN_ITERATIONS = 60
 
 @njit(cache=True, inline="always")
 def normal_force(d, vn, p):
-    """Clamped normal force: Hertz + viscous (Kelvin–Voigt) or Hunt–Crossley, never pulling."""
-    if d <= 0.0:
+    """Clamped normal force: Hertz + viscous (Kelvin–Voigt) or Hunt–Crossley, never pulling.
+
+    At ``d = 0`` the in-contact value is used: a Kelvin–Voigt contact pushes with ``eta V`` from
+    the instant of first touch (the classic force jump of that law).
+    """
+    if d < 0.0:
         return 0.0
     elastic = p[P_K] * d * math.sqrt(d)
     if p[P_LAW] == LAW_KELVIN_VOIGT:
@@ -235,8 +239,11 @@ def record_history(t0, t1, y0, q, h, p, phase, t_out, hist, io, work):
     """Write dense-output samples for the requested times in (t0, t1]."""
     while io < t_out.shape[0] and t_out[io] <= t1:
         if t_out[io] >= t0:
-            theta = (t_out[io] - t0) / h if h > 0.0 else 0.0
-            interpolate(y0, q, h, theta, work)
+            if h > 0.0:
+                interpolate(y0, q, h, (t_out[io] - t0) / h, work)
+            else:
+                for j in range(N_STATE):
+                    work[j] = y0[j]
             fn = normal_force(work[S_D], work[S_V], p)
             for j in range(N_STATE):
                 hist[io, j] = work[j]
@@ -245,6 +252,58 @@ def record_history(t0, t1, y0, q, h, p, phase, t_out, hist, io, work):
             hist[io, H_PHASE] = phase
         io += 1
     return io
+
+
+@njit(cache=True)
+def dense_coefficients(k, q):
+    """Q = K^T P: the dense-output polynomial of the last step (computed only when needed)."""
+    for i in range(N_STATE):
+        for j in range(4):
+            acc = 0.0
+            for s in range(7):
+                acc += k[s, i] * DENSE[s, j]
+            q[i, j] = acc
+
+
+@njit(cache=True)
+def phase_event_kind(phase, p):
+    if phase != 0:
+        return EV_STICK
+    if p[P_GX] != 0.0:
+        return EV_SLIP
+    return EV_NONE
+
+
+@njit(cache=True)
+def dopri_step(y, h, p, phase, k, tmp, y1, scale, rtol, atol):
+    """One Dormand–Prince 5(4) step from ``y`` (``k[0]`` = f(y)); returns the error norm."""
+    for i in range(N_STATE):
+        tmp[i] = y[i] + h * A21 * k[0, i]
+    rhs(tmp, p, phase, k[1])
+    for i in range(N_STATE):
+        tmp[i] = y[i] + h * (A31 * k[0, i] + A32 * k[1, i])
+    rhs(tmp, p, phase, k[2])
+    for i in range(N_STATE):
+        tmp[i] = y[i] + h * (A41 * k[0, i] + A42 * k[1, i] + A43 * k[2, i])
+    rhs(tmp, p, phase, k[3])
+    for i in range(N_STATE):
+        tmp[i] = y[i] + h * (A51 * k[0, i] + A52 * k[1, i] + A53 * k[2, i] + A54 * k[3, i])
+    rhs(tmp, p, phase, k[4])
+    for i in range(N_STATE):
+        tmp[i] = y[i] + h * (A61 * k[0, i] + A62 * k[1, i] + A63 * k[2, i] + A64 * k[3, i]
+                             + A65 * k[4, i])
+    rhs(tmp, p, phase, k[5])
+    for i in range(N_STATE):
+        y1[i] = y[i] + h * (B1 * k[0, i] + B3 * k[2, i] + B4 * k[3, i] + B5 * k[4, i]
+                            + B6 * k[5, i])
+    rhs(y1, p, phase, k[6])
+    err = 0.0
+    for i in range(N_STATE):
+        e = h * (E1 * k[0, i] + E3 * k[2, i] + E4 * k[3, i] + E5 * k[4, i] + E6 * k[5, i]
+                 + E7 * k[6, i])
+        sc = atol * scale[i] + rtol * max(abs(y[i]), abs(y1[i]))
+        err += (e / sc) ** 2
+    return math.sqrt(err / N_STATE)
 
 
 @njit(cache=True)
@@ -259,7 +318,7 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
     phase = initial_phase(y, p)
     rhs(y, p, phase, k[0])
     t = 0.0
-    h = min(1e-4 * h_max, h_max)
+    h = 1e-4 * h_max
     h_min = 1e-12 * h_max
     fn0 = normal_force(y[S_D], y[S_V], p)
     fn_peak, t_fn_peak = fn0, 0.0
@@ -267,87 +326,50 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
     d_max = max(y[S_D], 0.0)
     n_steps = 0
     n_switch = 0
-    io = 0
-    while io < t_out.shape[0] and t_out[io] <= 0.0:  # samples at the moment of first touch
-        for j in range(N_STATE):
-            hist[io, j] = y[j]
-        hist[io, H_FN] = fn0
-        hist[io, H_FT] = friction_force(fn0, phase, p)
-        hist[io, H_PHASE] = phase
-        io += 1
+    io = record_history(-1.0, 0.0, y, q, 0.0, p, phase, t_out, hist, 0, work)
+    # Event functions and the force rate at the start of the step, carried between steps.
+    kind = phase_event_kind(phase, p)
+    g_sep = event_value(EV_SEPARATION, y, p, phase)
+    g_phase = event_value(kind, y, p, phase) if kind != EV_NONE else 0.0
+    rate0 = normal_force_rate(y, k[0], p)
     while True:
         if n_steps >= max_steps:
             return ST_MAX_STEPS
         if t >= t_max:
             return ST_NO_SEPARATION
         h = min(h, h_max)
-        # Dormand–Prince stages.
-        for i in range(N_STATE):
-            tmp[i] = y[i] + h * A21 * k[0, i]
-        rhs(tmp, p, phase, k[1])
-        for i in range(N_STATE):
-            tmp[i] = y[i] + h * (A31 * k[0, i] + A32 * k[1, i])
-        rhs(tmp, p, phase, k[2])
-        for i in range(N_STATE):
-            tmp[i] = y[i] + h * (A41 * k[0, i] + A42 * k[1, i] + A43 * k[2, i])
-        rhs(tmp, p, phase, k[3])
-        for i in range(N_STATE):
-            tmp[i] = y[i] + h * (A51 * k[0, i] + A52 * k[1, i] + A53 * k[2, i] + A54 * k[3, i])
-        rhs(tmp, p, phase, k[4])
-        for i in range(N_STATE):
-            tmp[i] = y[i] + h * (A61 * k[0, i] + A62 * k[1, i] + A63 * k[2, i] + A64 * k[3, i]
-                                 + A65 * k[4, i])
-        rhs(tmp, p, phase, k[5])
-        for i in range(N_STATE):
-            y1[i] = y[i] + h * (B1 * k[0, i] + B3 * k[2, i] + B4 * k[3, i] + B5 * k[4, i]
-                                + B6 * k[5, i])
-        rhs(y1, p, phase, k[6])
-        err = 0.0
-        for i in range(N_STATE):
-            e = h * (E1 * k[0, i] + E3 * k[2, i] + E4 * k[3, i] + E5 * k[4, i] + E6 * k[5, i]
-                     + E7 * k[6, i])
-            sc = atol * scale[i] + rtol * max(abs(y[i]), abs(y1[i]))
-            err += (e / sc) ** 2
-        err = math.sqrt(err / N_STATE)
+        err = dopri_step(y, h, p, phase, k, tmp, y1, scale, rtol, atol)
         if not (err <= 1.0):  # also catches NaN
-            if err != err:
-                factor = MIN_FACTOR
-            else:
-                factor = max(MIN_FACTOR, SAFETY * err ** -0.2)
-            h *= factor
+            h *= MIN_FACTOR if err != err else max(MIN_FACTOR, SAFETY * err ** -0.2)
             if h < h_min:
                 return ST_STEP_UNDERFLOW
             continue
         n_steps += 1
-        for i in range(N_STATE):
-            for j in range(4):
-                acc = 0.0
-                for s in range(7):
-                    acc += k[s, i] * DENSE[s, j]
-                q[i, j] = acc
-        # Earliest event in the step.
+        have_q = False
         theta_end = 1.0
         event = EV_NONE
-        if y1[S_V] > 0.0:
-            ga = event_value(EV_SEPARATION, y, p, phase)
-            gb = event_value(EV_SEPARATION, y1, p, phase)
-            if ga > 0.0 and gb <= 0.0:
-                theta_end = find_root(EV_SEPARATION, y, q, h, p, phase, ga, gb, 0.0, 1.0, work)
-                event = EV_SEPARATION
-        if phase != 0:
-            kind = EV_STICK
-        elif p[P_GX] != 0.0:
-            kind = EV_SLIP
-        else:
-            kind = EV_NONE
+        g_sep1 = event_value(EV_SEPARATION, y1, p, phase)
+        if y1[S_V] > 0.0 and g_sep > 0.0 and g_sep1 <= 0.0:
+            dense_coefficients(k, q)
+            have_q = True
+            theta_end = find_root(EV_SEPARATION, y, q, h, p, phase, g_sep, g_sep1, 0.0, 1.0,
+                                  work)
+            event = EV_SEPARATION
+        g_phase1 = 0.0
         if kind != EV_NONE:
-            ga = event_value(kind, y, p, phase)
-            interpolate(y, q, h, theta_end, work)
-            gb = event_value(kind, work, p, phase)
-            start_ok = ga > 0.0 if kind == EV_STICK else ga >= 0.0
-            end_hit = gb <= 0.0 if kind == EV_STICK else gb < 0.0
+            if event == EV_NONE:
+                g_phase1 = event_value(kind, y1, p, phase)
+            else:
+                interpolate(y, q, h, theta_end, work)
+                g_phase1 = event_value(kind, work, p, phase)
+            start_ok = g_phase > 0.0 if kind == EV_STICK else g_phase >= 0.0
+            end_hit = g_phase1 <= 0.0 if kind == EV_STICK else g_phase1 < 0.0
             if start_ok and end_hit:
-                theta_end = find_root(kind, y, q, h, p, phase, ga, gb, 0.0, theta_end, work)
+                if not have_q:
+                    dense_coefficients(k, q)
+                    have_q = True
+                theta_end = find_root(kind, y, q, h, p, phase, g_phase, g_phase1, 0.0,
+                                      theta_end, work)
                 event = kind
         if event != EV_NONE:
             interpolate(y, q, h, theta_end, y1)
@@ -355,6 +377,9 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
         t_end = t + theta_end * h
         # Maximum overlap where the normal velocity changes sign.
         if y[S_V] < 0.0 and y1[S_V] >= 0.0:
+            if not have_q:
+                dense_coefficients(k, q)
+                have_q = True
             th = find_root(EV_MAX_OVERLAP, y, q, h, p, phase, -y[S_V], -y1[S_V], 0.0, theta_end,
                            work)
             interpolate(y, q, h, th, work)
@@ -365,12 +390,18 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
         if fn1 > fn_peak:
             fn_peak, t_fn_peak = fn1, t_end
         ft_peak = max(ft_peak, abs(friction_force(fn1, phase, p)))
-        if normal_force_rate(y, k[0], p) > 0.0 and normal_force_rate(y1, k[6], p) < 0.0:
+        rate1 = normal_force_rate(y1, k[6], p)
+        if rate0 > 0.0 and rate1 < 0.0:
+            if not have_q:
+                dense_coefficients(k, q)
+                have_q = True
             fmax, th = golden_max_force(y, q, h, p, 0.0, theta_end, work)
             if fmax > fn_peak:
                 fn_peak, t_fn_peak = fmax, t + th * h
             ft_peak = max(ft_peak, abs(friction_force(fmax, phase, p)))
         if t_out.shape[0] > 0:
+            if not have_q:
+                dense_coefficients(k, q)
             io = record_history(t, t_end, y, q, h, p, phase, t_out, hist, io, work)
         t = t_end
         for i in range(N_STATE):
@@ -387,24 +418,21 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
             res[R_SWITCHES] = n_switch
             res[R_T_FN_PEAK] = t_fn_peak
             return ST_OK
-        if event == EV_STICK:
-            phase = phase_after_stick(y, p)
-            n_switch += 1
-        elif event == EV_SLIP:
-            phase = 1 if p[P_GX] > 0.0 else -1
-            n_switch += 1
-        if event != EV_NONE:
-            rhs(y, p, phase, k[0])
-            fn1 = normal_force(y[S_D], y[S_V], p)
-            ft_peak = max(ft_peak, abs(friction_force(fn1, phase, p)))
-        else:
+        if event == EV_NONE:
             for i in range(N_STATE):
                 k[0, i] = k[6, i]
-        if err == 0.0:
-            factor = MAX_FACTOR
+            g_sep, g_phase, rate0 = g_sep1, g_phase1, rate1
         else:
-            factor = min(MAX_FACTOR, SAFETY * err ** -0.2)
-        h *= factor
+            phase = phase_after_stick(y, p) if event == EV_STICK else (1 if p[P_GX] > 0.0
+                                                                         else -1)
+            n_switch += 1
+            rhs(y, p, phase, k[0])
+            ft_peak = max(ft_peak, abs(friction_force(fn1, phase, p)))
+            kind = phase_event_kind(phase, p)
+            g_sep = event_value(EV_SEPARATION, y, p, phase)
+            g_phase = event_value(kind, y, p, phase) if kind != EV_NONE else 0.0
+            rate0 = normal_force_rate(y, k[0], p)
+        h *= MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** -0.2)
 
 
 @njit(cache=True, parallel=True)
