@@ -1,0 +1,237 @@
+"""The experiment file (TOML) parsed, once, into a frozen :class:`Experiment`."""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import math
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from .._errors import InputFileError
+from .._validate import range_text
+from ..model import Ball, damping_unit
+from ._priors import LogNormal, Normal, Prior, Uniform
+from ._schema import OPTIONAL, PARAMETERS, PRIOR_KEYS, REQUIRED_SECTIONS, SECTIONS, Key
+
+
+@dataclass(frozen=True)
+class Incidence:
+    """Nominal incidence at first contact and its bounce-to-bounce spread."""
+
+    speed: float  #: m/s
+    angle: float  #: deg from the normal
+    spin: float = 0.0  #: rad/s
+    speed_sd: float = 0.0  #: m/s
+    angle_sd: float = 0.0  #: deg
+    spin_sd: float = 0.0  #: rad/s
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """Everything known about an experiment, and what is to be inferred.
+
+    ``priors`` maps each inferred parameter (``mu``, ``eta``, ``youngs_modulus``, ``spin``) to its
+    prior; every other parameter is fixed at :meth:`fixed_value`. ``settings`` holds the
+    ``[trajectories]`` and ``[synth]`` tables with defaults filled in.
+    """
+
+    name: str
+    description: str
+    ball: Ball
+    inclination: float  #: deg, positive: the ball travels down-slope
+    incidence: Incidence
+    normal_law: str
+    gravity: float  #: m/s^2
+    contact: MappingProxyType  #: mu, eta values given in [contact]
+    priors: MappingProxyType  #: name -> Prior, in file order
+    trajectories: MappingProxyType
+    synth: MappingProxyType
+    source: str = "<string>"
+    text_sha256: str = field(default="", compare=False)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(self.priors)
+
+    def unit(self, name: str) -> str:
+        """Unit of a parameter (the damping unit depends on the normal law)."""
+        return damping_unit(self.normal_law) if name == "eta" else PARAMETERS[name][0]
+
+    def fixed_value(self, name: str) -> float:
+        """The value of a parameter that is not inferred, from the file."""
+        if name in ("mu", "eta"):
+            if name not in self.contact:
+                raise InputFileError(self.source, f"missing; `{name}` is not inferred (no "
+                                     f"[parameters.{name}]) so its value is needed",
+                                     field=f"contact.{name}")
+            return self.contact[name]
+        return {"youngs_modulus": self.ball.youngs_modulus,
+                "spin": self.incidence.spin}[name]
+
+    def true_value(self, name: str) -> float:
+        """The value used as the truth of synthetic campaigns (same source as fixed values)."""
+        return self.fixed_value(name)
+
+
+def load_experiment(path: str | os.PathLike) -> Experiment:
+    """Read and validate an experiment file; every problem names the key and what is allowed."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputFileError(path, f"cannot read the experiment file ({exc.strerror})") from None
+    try:
+        doc = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise InputFileError(path, "not UTF-8 text; an experiment file is TOML") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputFileError(path, f"not valid TOML: {exc}") from None
+    return parse_experiment(doc, source=str(path), sha256=hashlib.sha256(raw).hexdigest())
+
+
+def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -> Experiment:
+    """Validate a parsed TOML document into an :class:`Experiment`."""
+    p = _Parser(source)
+    p.check_keys(doc, SECTIONS.keys() | {"parameters"}, "", what="section")
+    for name in REQUIRED_SECTIONS:
+        if name not in doc:
+            raise InputFileError(source, f"missing section [{name}]", field=name)
+    t = {name: p.section(doc, name) for name in SECTIONS}
+    ball = _ball(p, t["ball"])
+    inc = t["incidence"]
+    incidence = Incidence(inc["speed_m_s"], inc["angle_deg"], inc["spin_rad_s"],
+                          inc["speed_sd_m_s"], inc["angle_sd_deg"], inc["spin_sd_rad_s"])
+    priors = _priors(p, doc.get("parameters", {}))
+    return Experiment(
+        name=t["experiment"]["name"], description=t["experiment"]["description"], ball=ball,
+        inclination=t["surface"]["inclination_deg"], incidence=incidence,
+        normal_law=t["model"]["normal"], gravity=t["model"]["gravity_m_s2"],
+        contact=MappingProxyType({k: v for k, v in t["contact"].items() if v is not None}),
+        priors=MappingProxyType(priors), trajectories=MappingProxyType(t["trajectories"]),
+        synth=MappingProxyType(t["synth"]), source=source, text_sha256=sha256)
+
+
+class _Parser:
+    def __init__(self, source: str):
+        self.source = source
+
+    def error(self, key_path: str, message: str) -> InputFileError:
+        return InputFileError(self.source, message, field=key_path)
+
+    def check_keys(self, table: dict, allowed, prefix: str, *, what: str = "key") -> None:
+        for key in table:
+            if key not in allowed:
+                hint = difflib.get_close_matches(key, allowed, n=1)
+                where = f" in [{prefix}]" if prefix else ""
+                suggestion = f" (did you mean `{hint[0]}`?)" if hint else ""
+                raise self.error(f"{prefix}.{key}" if prefix else key,
+                                 f"unknown {what}{suggestion}; allowed {what}s{where}: "
+                                 f"{', '.join(sorted(allowed))}")
+
+    def section(self, doc: dict, name: str) -> dict[str, Any]:
+        table = doc.get(name, {})
+        if not isinstance(table, dict):
+            raise self.error(name, f"must be a table [{name}]; got {_kind(table)}")
+        schema = SECTIONS[name]
+        self.check_keys(table, schema, name)
+        return {key: self.value(f"{name}.{key}", table, key, spec)
+                for key, spec in schema.items()}
+
+    def value(self, key_path: str, table: dict, key: str, spec: Key) -> Any:
+        if key not in table:
+            if spec.default is None:
+                raise self.error(key_path, f"missing; required: {_describe(spec)}")
+            return None if spec.default is OPTIONAL else spec.default
+        v = table[key]
+        if spec.kind is str:
+            if not isinstance(v, str):
+                raise self.error(key_path, f"must be a string; got {_kind(v)}")
+            if spec.choices and v not in spec.choices:
+                raise self.error(key_path, f"must be one of "
+                                 f"{', '.join(repr(c) for c in spec.choices)}; got {v!r}")
+            return v
+        if isinstance(v, bool) or not isinstance(v, int | float) or (
+                spec.kind is int and not isinstance(v, int)):
+            noun = "an integer" if spec.kind is int else "a number"
+            raise self.error(key_path, f"must be {noun}{_unit(spec.unit)}; got {_kind(v)}")
+        ok = math.isfinite(v) or (spec.default in (math.inf, -math.inf) and not math.isnan(v))
+        if spec.low is not None:
+            ok &= v > spec.low if spec.low_open else v >= spec.low
+        if spec.high is not None:
+            ok &= v < spec.high if spec.high_open else v <= spec.high
+        if not ok:
+            raise self.error(key_path, f"must be {_describe(spec)}; got {v!r}")
+        return spec.kind(v)
+
+
+def _ball(p: _Parser, b: dict) -> Ball:
+    for one, other in (("diameter_m", "radius_m"), ("mass_kg", "density_kg_m3")):
+        if (b[one] is None) == (b[other] is None):
+            got = "both" if b[one] is not None else "neither"
+            raise p.error(f"ball.{one}", f"give exactly one of `ball.{one}` and "
+                                         f"`ball.{other}`; got {got}")
+    diameter = b["diameter_m"] if b["diameter_m"] is not None else 2.0 * b["radius_m"]
+    return Ball.from_diameter(diameter, mass=b["mass_kg"], density=b["density_kg_m3"],
+                              youngs_modulus=b["youngs_modulus_Pa"],
+                              poisson_ratio=b["poisson_ratio"],
+                              inertia_factor=b["inertia_factor"])
+
+
+def _priors(p: _Parser, table: Any) -> dict[str, Prior]:
+    if not isinstance(table, dict):
+        raise p.error("parameters", f"must hold tables [parameters.NAME]; got {_kind(table)}")
+    p.check_keys(table, PARAMETERS, "parameters", what="parameter")
+    return {name: _prior(p, name, spec) for name, spec in table.items()}
+
+
+def _prior(p: _Parser, name: str, spec: Any) -> Prior:
+    path = f"parameters.{name}"
+    if not isinstance(spec, dict):
+        raise p.error(path, f"must be a table [{path}] with a prior; got {_kind(spec)}")
+    kind = spec.get("prior", "uniform")
+    if kind not in PRIOR_KEYS:
+        raise p.error(f"{path}.prior", f"must be one of "
+                      f"{', '.join(repr(k) for k in PRIOR_KEYS)}; got {kind!r}")
+    keys = PRIOR_KEYS[kind]
+    p.check_keys({k: v for k, v in spec.items() if k != "prior"}, keys, path)
+    v = {k: p.value(f"{path}.{k}", spec, k, s) for k, s in keys.items()}
+    if "low" in v and "high" in v and not v["low"] < v["high"]:
+        raise p.error(path, f"`low` ({v['low']!r}) must be less than `high` ({v['high']!r})")
+    prior = {"uniform": lambda: Uniform(v["low"], v["high"]),
+             "normal": lambda: Normal(v["mean"], v["sd"], v["low"], v["high"]),
+             "lognormal": lambda: LogNormal(v["median"], v["sd_log"])}[kind]()
+    floor = PARAMETERS[name][1]
+    if prior.support[0] < floor:
+        fix = (f"set `low` >= {floor:g}" if kind == "uniform"
+               else f"truncate it with `low = {floor:g}`")
+        raise p.error(path, f"the prior ({prior.describe()}) puts mass below {floor:g}, "
+                            f"where `{name}` is not physical; {fix}")
+    return prior
+
+
+def _describe(spec: Key) -> str:
+    if spec.kind is str:
+        allowed = (f"one of {', '.join(repr(c) for c in spec.choices)}" if spec.choices
+                   else "a string")
+        return f"{spec.doc}, {allowed}"
+    words = range_text(spec.low, spec.high, spec.low_open, spec.high_open, spec.unit)
+    if spec.kind is int:
+        words = words.replace("a finite number", "an integer")
+    return f"{words} ({spec.doc})"
+
+
+def _unit(unit: str) -> str:
+    return f" (in {unit})" if unit else ""
+
+
+def _kind(v: Any) -> str:
+    names = {str: "the string", bool: "the boolean", dict: "a table", list: "an array"}
+    for t, noun in names.items():
+        if isinstance(v, t):
+            return f"{noun} {v!r}" if t in (str, bool) else noun
+    return f"{v!r}"
