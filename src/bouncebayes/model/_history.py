@@ -76,19 +76,19 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
         if isinstance(n, bool) or not isinstance(n, int) or n < low:
             raise ValueError(f"`{name}` must be an integer >= {low}; got {n!r}")
     kwargs = dict(mu=mu, eta=eta, speed=speed, angle=angle, spin=spin, inclination=inclination,
-                  youngs_modulus=youngs_modulus)
+                  youngs_modulus=youngs_modulus, gravity=gravity)
     for name, value in kwargs.items():
         if value is not None:
             check_scalar(name, value)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SimulationWarning)
-        bounce = simulate(ball, normal_law=normal_law, gravity=gravity, solver=solver, **kwargs)
+        bounce = simulate(ball, normal_law=normal_law, solver=solver, **kwargs)
     if bounce.n_failed:
         raise BounceFailed(int(bounce.status), f"the bounce could not be solved: "
                                                f"{bounce.failure_summary()}")
     values = dict(kwargs, youngs_modulus=ball.youngs_modulus if youngs_modulus is None
                   else youngs_modulus)
-    prep = _prepare(ball, values, normal_law, gravity, solver, "raise")
+    prep = _prepare(ball, values, normal_law, solver, "raise")
     tc = float(bounce.contact_time)
     t_contact = np.linspace(0.0, tc, n_contact)
     hist = np.full((n_contact, K.N_HISTORY), np.nan)

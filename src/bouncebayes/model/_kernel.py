@@ -31,8 +31,8 @@ S_X, S_D, S_U, S_V, S_W = range(5)
 N_STATE = 5
 # Result layout.
 (R_TC, R_X, R_D, R_U, R_V, R_W, R_FN_PEAK, R_FT_PEAK, R_D_MAX, R_PHASE, R_STEPS,
- R_SWITCHES, R_T_FN_PEAK) = range(13)
-N_RESULTS = 13
+ R_SWITCHES, R_T_FN_PEAK, R_V_FN_PEAK) = range(14)
+N_RESULTS = 14
 # History columns: state, then normal force, friction force, phase.
 H_FN, H_FT, H_PHASE = 5, 6, 7
 N_HISTORY = 8
@@ -321,7 +321,7 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
     h = 1e-4 * h_max
     h_min = 1e-12 * h_max
     fn0 = normal_force(y[S_D], y[S_V], p)
-    fn_peak, t_fn_peak = fn0, 0.0
+    fn_peak, t_fn_peak, v_fn_peak = fn0, 0.0, y[S_V]
     ft_peak = abs(friction_force(fn0, phase, p))
     d_max = max(y[S_D], 0.0)
     n_steps = 0
@@ -388,7 +388,7 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
         # Peak normal (and friction) force: the end point, or an interior maximum.
         fn1 = normal_force(y1[S_D], y1[S_V], p)
         if fn1 > fn_peak:
-            fn_peak, t_fn_peak = fn1, t_end
+            fn_peak, t_fn_peak, v_fn_peak = fn1, t_end, y1[S_V]
         ft_peak = max(ft_peak, abs(friction_force(fn1, phase, p)))
         rate1 = normal_force_rate(y1, k[6], p)
         if rate0 > 0.0 and rate1 < 0.0:
@@ -397,7 +397,8 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
                 have_q = True
             fmax, th = golden_max_force(y, q, h, p, 0.0, theta_end, work)
             if fmax > fn_peak:
-                fn_peak, t_fn_peak = fmax, t + th * h
+                interpolate(y, q, h, th, work)
+                fn_peak, t_fn_peak, v_fn_peak = fmax, t + th * h, work[S_V]
             ft_peak = max(ft_peak, abs(friction_force(fmax, phase, p)))
         if t_out.shape[0] > 0:
             if not have_q:
@@ -417,6 +418,7 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
             res[R_STEPS] = n_steps
             res[R_SWITCHES] = n_switch
             res[R_T_FN_PEAK] = t_fn_peak
+            res[R_V_FN_PEAK] = v_fn_peak
             return ST_OK
         if event == EV_NONE:
             for i in range(N_STATE):

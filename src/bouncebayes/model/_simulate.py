@@ -73,7 +73,6 @@ class Bounces:
     max_overlap: np.ndarray  #: m
     separation_overlap: np.ndarray  #: m, overlap when the normal force vanished
     time_of_peak_normal_force: np.ndarray  #: s after first contact
-    separation_displacement: np.ndarray  #: m, along the plane during contact
     rolling: np.ndarray  #: bool, the contact point was not slipping at separation
     status: np.ndarray  #: int8 codes of :class:`Status`
     n_steps: np.ndarray  #: accepted solver steps
@@ -136,9 +135,10 @@ _ARG_RANGES = {
     "spin": ("rad/s", None, None, False, False),
     "inclination": ("deg", -90.0, 90.0, True, True),
     "youngs_modulus": ("Pa", 0.0, None, True, False),
+    "gravity": ("m/s^2", 0.0, None, False, False),
 }
 _BENIGN = {"mu": 0.0, "eta": 0.0, "speed": 1.0, "angle": 0.0, "spin": 0.0, "inclination": 0.0,
-           "youngs_modulus": 1.0e6}
+           "youngs_modulus": 1.0e6, "gravity": 0.0}
 
 
 def _check_inputs(values: dict, errors: Errors) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -158,7 +158,7 @@ def _check_inputs(values: dict, errors: Errors) -> tuple[dict[str, np.ndarray], 
     return arrays, bad
 
 
-def _prepare(ball: Ball, values: dict, normal_law: str, gravity: float, solver: SolverConfig,
+def _prepare(ball: Ball, values: dict, normal_law: str, solver: SolverConfig,
              errors: Errors) -> _Prepared:
     arrays, bad = _check_inputs(values, errors)
     shape = bad.shape
@@ -180,8 +180,8 @@ def _prepare(ball: Ball, values: dict, normal_law: str, gravity: float, solver: 
     params[:, K.P_I] = ball.moment_of_inertia
     params[:, K.P_MU] = a["mu"]
     params[:, K.P_ETA] = a["eta"]
-    params[:, K.P_GX] = gravity * np.sin(incl)
-    params[:, K.P_GY] = gravity * np.cos(incl)
+    params[:, K.P_GX] = a["gravity"] * np.sin(incl)
+    params[:, K.P_GY] = a["gravity"] * np.cos(incl)
     params[:, K.P_LAW] = _LAW_CODES[normal_law]
     params[:, K.P_DSCALE] = d_scale
     y0 = np.zeros((n, K.N_STATE))
@@ -193,6 +193,18 @@ def _prepare(ball: Ball, values: dict, normal_law: str, gravity: float, solver: 
     return _Prepared(params, y0, scale, t_hertz / 10.0,
                      solver.max_contact_time_factor * t_hertz, status, shape,
                      params[:, K.P_GX], params[:, K.P_GY], r)
+
+
+def solve_prepared(prep: _Prepared, solver: SolverConfig,
+                   mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Run the compiled ODE solver on prepared elements (those in ``mask``, if given)."""
+    status = prep.status.copy()
+    if mask is not None:
+        status[~mask] = K.ST_INVALID  # skipped; the caller keeps its own results there
+    res = np.full((status.size, K.N_RESULTS), np.nan)
+    K.solve_batch(prep.params, prep.y0, prep.scale, prep.h_max, prep.t_max, solver.rtol,
+                  solver.atol, solver.max_steps, status, res)
+    return res, status
 
 
 def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bounces:
@@ -215,7 +227,6 @@ def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bo
         max_overlap=shaped(res[:, K.R_D_MAX]),
         separation_overlap=shaped(res[:, K.R_D]),
         time_of_peak_normal_force=shaped(res[:, K.R_T_FN_PEAK]),
-        separation_displacement=shaped(res[:, K.R_X]),
         rolling=shaped(ok & (res[:, K.R_PHASE] == 0)),
         status=shaped(status),
         n_steps=shaped(np.where(ok, np.nan_to_num(res[:, K.R_STEPS]), 0).astype(np.int64)),
@@ -224,7 +235,7 @@ def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bo
 
 def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclination=0.0,
              youngs_modulus=None, normal_law: str = "kelvin-voigt",
-             gravity: float = STANDARD_GRAVITY, solver: SolverConfig | None = None,
+             gravity=STANDARD_GRAVITY, solver: SolverConfig | None = None,
              errors: Errors = "raise") -> Bounces:
     """Simulate oblique bounces of ``ball`` on a rigid plane, batched over broadcast arrays.
 
@@ -247,7 +258,7 @@ def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclin
         normal_law: ``"kelvin-voigt"`` (the paper's) or ``"hunt-crossley"``; forces are
             clamped at >= 0 (a contact never pulls) and the ball separates where F_n returns
             to zero.
-        gravity: gravitational acceleration, m/s^2, >= 0.
+        gravity: gravitational acceleration, m/s^2, >= 0 (the standard 9.80665 by default).
         solver: tolerances and limits (:class:`SolverConfig`).
         errors: ``"raise"``: invalid input raises ``ValueError`` and unsolved bounces give a
             :class:`SimulationWarning`; ``"flag"``: both only set the element's ``status``.
@@ -257,16 +268,13 @@ def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclin
     """
     check_choice("errors", errors, ("raise", "flag"))
     normal_law = check_normal_law(normal_law)
-    gravity = check_scalar("gravity", gravity, unit="m/s^2", low=0.0)
     solver = SolverConfig() if solver is None else solver
     values = {"mu": mu, "eta": eta, "speed": speed, "angle": angle, "spin": spin,
               "inclination": inclination,
-              "youngs_modulus": ball.youngs_modulus if youngs_modulus is None else youngs_modulus}
-    prep = _prepare(ball, values, normal_law, gravity, solver, errors)
-    res = np.full((prep.status.size, K.N_RESULTS), np.nan)
-    status = prep.status.copy()
-    K.solve_batch(prep.params, prep.y0, prep.scale, prep.h_max, prep.t_max, solver.rtol,
-                  solver.atol, solver.max_steps, status, res)
+              "youngs_modulus": ball.youngs_modulus if youngs_modulus is None else youngs_modulus,
+              "gravity": gravity}
+    prep = _prepare(ball, values, normal_law, solver, errors)
+    res, status = solve_prepared(prep, solver)
     out = _assemble(res, status, prep.shape)
     if errors == "raise" and out.n_failed:
         warnings.warn(f"{out.n_failed} of {status.size} bounces could not be solved: "
