@@ -116,7 +116,7 @@ def test_unsolvable_bounce_is_reported_not_hung():
 
 
 def test_max_steps_status():
-    res = bb.simulate(errors="flag", solver=bb.SolverConfig(max_steps=10), **PAPER)
+    res = bb.simulate(errors="flag", solver=bb.SolverConfig(max_steps=10), method="ode", **PAPER)
     assert res.status == Status.MAX_STEPS
     assert "max_steps" in Status.MAX_STEPS.message
 
@@ -158,3 +158,10 @@ def test_regimes_follow_the_rigid_body_criterion():
     res = bb.simulate(mu=[0.02, 0.5], eta=1.0, speed=speed, angle=angle, gravity=0.0)
     assert res.rolling.tolist() == [False, True]
     assert res.regime.tolist() == ["slip", "roll"]
+
+
+def test_history_contact_samples_are_all_filled():
+    """Regression: the summary and the samples must come from one integration (every contact
+    sample finite, the last exactly at separation)."""
+    h = simulate_history(**PAPER, n_contact=50, n_flight=3)
+    assert np.isfinite(h.normal_force).all() and np.isfinite(h.y).all()

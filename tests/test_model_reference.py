@@ -80,13 +80,14 @@ def one(sets, i) -> dict:
 
 
 def run_package(sets, solver) -> dict[str, np.ndarray]:
-    """One batched ``simulate`` call per normal law (the law is not an array argument)."""
+    """One batched ``simulate`` call per normal law (the law is not an array argument), on the
+    ODE path (the closed-form path is tested against this one in test_model_fast.py)."""
     out = {q: np.full(N_SETS, np.nan) for q in REBOUND + CONTACT}
     out["rolling"] = np.zeros(N_SETS, dtype=bool)
     out["status"] = np.full(N_SETS, -1)
     for law in bb.model.NORMAL_LAWS:
         sel = sets["law"] == law
-        res = bb.simulate(BALL, normal_law=law, solver=solver,
+        res = bb.simulate(BALL, normal_law=law, solver=solver, method="ode",
                           **{k: sets[k][sel] for k in NUMERIC})
         for q in out:
             out[q][sel] = getattr(res, q)
@@ -234,7 +235,7 @@ def test_head_on_rolling_incidence(law, eta, inclination):
     kw = {"mu": 0.3, "eta": eta, "speed": 2.0, "angle": 0.0, "spin": 0.0,
           "inclination": inclination, "normal_law": law}
     ref = reference_bounce(BALL, **kw)
-    res = bb.simulate(BALL, solver=TIGHT, **kw)
+    res = bb.simulate(BALL, solver=TIGHT, method="ode", **kw)
     m, r = BALL.mass, BALL.radius
     inertia = BALL.inertia_factor * m * r**2
     # Energy balance: friction and damping only remove energy, gravity adds at most

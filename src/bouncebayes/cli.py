@@ -15,7 +15,7 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
-from . import __version__
+from ._version import __version__
 from .model import (NORMAL_LAWS, PAPER_BALL, STANDARD_GRAVITY, Ball, SimulationWarning, simulate,
                     simulate_history)
 

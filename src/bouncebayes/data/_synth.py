@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from .. import __version__
+from .._version import __version__
 from .._io import write_json, write_text
 from ..model import simulate, simulate_history
 from ._experiment import Experiment

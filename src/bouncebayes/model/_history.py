@@ -82,7 +82,9 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
             check_scalar(name, value)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SimulationWarning)
-        bounce = simulate(ball, normal_law=normal_law, solver=solver, **kwargs)
+        # the ODE path: the samples below come from the same integration, so the contact
+        # time (their last sample) is exactly the one the summary reports
+        bounce = simulate(ball, normal_law=normal_law, solver=solver, method="ode", **kwargs)
     if bounce.n_failed:
         raise BounceFailed(int(bounce.status), f"the bounce could not be solved: "
                                                f"{bounce.failure_summary()}")

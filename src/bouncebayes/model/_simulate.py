@@ -17,6 +17,7 @@ from ._closed_form import HERTZ_CONTACT_TIME_CONSTANT
 from ._config import PAPER_BALL, STANDARD_GRAVITY, Ball, SolverConfig, check_normal_law
 
 Errors = Literal["raise", "flag"]
+Method = Literal["auto", "ode"]
 _LAW_CODES = {"kelvin-voigt": K.LAW_KELVIN_VOIGT, "hunt-crossley": K.LAW_HUNT_CROSSLEY}
 
 
@@ -74,6 +75,7 @@ class Bounces:
     separation_overlap: np.ndarray  #: m, overlap when the normal force vanished
     time_of_peak_normal_force: np.ndarray  #: s after first contact
     rolling: np.ndarray  #: bool, the contact point was not slipping at separation
+    closed_form: np.ndarray  #: bool, solved by the tabulated closed form (not the ODE)
     status: np.ndarray  #: int8 codes of :class:`Status`
     n_steps: np.ndarray  #: accepted solver steps
 
@@ -105,10 +107,11 @@ class Bounces:
         """The results of one bounce as plain Python values (for JSON and tables)."""
         row = {f.name: getattr(self, f.name)[index] for f in fields(self)}
         out: dict[str, float | str] = {k: float(v) for k, v in row.items()
-                                       if k not in ("rolling", "status", "n_steps")}
+                                       if k not in ("rolling", "status", "n_steps", "closed_form")}
         out["regime"] = str(self.regime[index])
         out["status"] = Status(int(row["status"])).name
         out["n_steps"] = int(row["n_steps"])
+        out["closed_form"] = bool(row["closed_form"])
         return out
 
 
@@ -207,6 +210,20 @@ def solve_prepared(prep: _Prepared, solver: SolverConfig,
     return res, status
 
 
+def _solve_auto(prep: _Prepared, normal_law: str,
+                solver: SolverConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Closed form where exact, the ODE for the elements the closed form hands back."""
+    from ._fast import fast_prepared
+
+    res, status, fallback = fast_prepared(prep, normal_law)
+    need = (fallback != 0) & (status == K.ST_OK)
+    if need.any():
+        res_ode, status_ode = solve_prepared(prep, solver, mask=need)
+        res[need] = res_ode[need]
+        status[need] = status_ode[need]
+    return res, status
+
+
 def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bounces:
     ok = status == K.ST_OK
     res = np.where(ok[:, None], res, np.nan)
@@ -228,6 +245,7 @@ def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bo
         separation_overlap=shaped(res[:, K.R_D]),
         time_of_peak_normal_force=shaped(res[:, K.R_T_FN_PEAK]),
         rolling=shaped(ok & (res[:, K.R_PHASE] == 0)),
+        closed_form=shaped(ok & (res[:, K.R_STEPS] == 0)),
         status=shaped(status),
         n_steps=shaped(np.where(ok, np.nan_to_num(res[:, K.R_STEPS]), 0).astype(np.int64)),
     )
@@ -236,7 +254,7 @@ def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bo
 def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclination=0.0,
              youngs_modulus=None, normal_law: str = "kelvin-voigt",
              gravity=STANDARD_GRAVITY, solver: SolverConfig | None = None,
-             errors: Errors = "raise") -> Bounces:
+             errors: Errors = "raise", method: Method = "auto") -> Bounces:
     """Simulate oblique bounces of ``ball`` on a rigid plane, batched over broadcast arrays.
 
     Free flight is ballistic (closed form); only the contact is integrated, from first touch
@@ -262,11 +280,15 @@ def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclin
         solver: tolerances and limits (:class:`SolverConfig`).
         errors: ``"raise"``: invalid input raises ``ValueError`` and unsolved bounces give a
             :class:`SimulationWarning`; ``"flag"``: both only set the element's ``status``.
+        method: ``"auto"`` (default): the tabulated normal impact with the closed-form
+            tangential outcome wherever that is exact (``bouncebayes.model._fast``), the ODE
+            solver elsewhere, element by element; ``"ode"``: the ODE solver everywhere.
 
     Returns:
         :class:`Bounces` with one entry per broadcast element.
     """
     check_choice("errors", errors, ("raise", "flag"))
+    check_choice("method", method, ("auto", "ode"))
     normal_law = check_normal_law(normal_law)
     solver = SolverConfig() if solver is None else solver
     values = {"mu": mu, "eta": eta, "speed": speed, "angle": angle, "spin": spin,
@@ -274,7 +296,10 @@ def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclin
               "youngs_modulus": ball.youngs_modulus if youngs_modulus is None else youngs_modulus,
               "gravity": gravity}
     prep = _prepare(ball, values, normal_law, solver, errors)
-    res, status = solve_prepared(prep, solver)
+    if method == "ode":
+        res, status = solve_prepared(prep, solver)
+    else:
+        res, status = _solve_auto(prep, normal_law, solver)
     out = _assemble(res, status, prep.shape)
     if errors == "raise" and out.n_failed:
         warnings.warn(f"{out.n_failed} of {status.size} bounces could not be solved: "

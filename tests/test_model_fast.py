@@ -1,0 +1,132 @@
+"""The fast exact path (tabulated normal impact + closed-form tangential outcome) against the ODE.
+
+Expected values: the package's own ODE path at tight tolerance (rtol = atol = 1e-12), which
+test_model_reference.py ties to an independent SciPy DOP853 solution to better than 1e-8; the
+closed forms of MODEL.md §3 for the tangential part.
+"""
+
+import numpy as np
+import pytest
+
+import bouncebayes as bb
+from bouncebayes.model import _fast
+
+TIGHT = bb.SolverConfig(rtol=1e-12, atol=1e-12)
+REL = 1e-7  # issue: agreement with the ODE path to 1e-7 relative
+QUANTITIES = ("rebound_speed", "rebound_angle", "rebound_spin", "contact_time",
+              "peak_normal_force", "peak_friction_force")
+
+
+def draws(n, seed, law, inclination=0.0):
+    """The paper's prior box (mu <= 0.5, eta <= 5 kg/s; Hunt–Crossley eta <= 0.3 s/m) over
+    incident speeds 1-6 m/s, angles 0-85 deg and spins +-200 rad/s."""
+    rng = np.random.default_rng(seed)
+    eta_max = 5.0 if law == "kelvin-voigt" else 0.3
+    return dict(mu=rng.uniform(0, 0.5, n), eta=rng.uniform(0, eta_max, n),
+                speed=rng.uniform(1, 6, n), angle=rng.uniform(0, 85, n),
+                spin=rng.uniform(-200, 200, n), inclination=inclination, normal_law=law)
+
+
+def relative_error(fast, ode, q, speed, mu):
+    """|a - b| / max(|b|, floor): floors on each quantity's natural scale in this bounce
+    (incident speed for velocities, speed / radius for spin, 1 degree for angles, mu times the
+    peak normal force for the peak friction, which is tiny when the slip stops within
+    microseconds), else its own value."""
+    a, b = getattr(fast, q), getattr(ode, q)
+    floor = {"rebound_speed": speed, "rebound_angle": 1.0,
+             "rebound_spin": speed / bb.PAPER_BALL.radius,
+             "peak_friction_force": mu * ode.peak_normal_force}.get(q, 0.0)
+    return np.abs(a - b) / np.maximum(np.abs(b), floor)
+
+
+@pytest.mark.parametrize(("law", "inclination", "seed"), [
+    ("kelvin-voigt", 0.0, 11), ("hunt-crossley", 0.0, 12), ("kelvin-voigt", 15.0, 13),
+    ("kelvin-voigt", -15.0, 14), ("hunt-crossley", 10.0, 15)])
+def test_fast_path_agrees_with_the_ode_path(law, inclination, seed):
+    kw = draws(600, seed, law, inclination)
+    fast = bb.simulate(**kw)  # method="auto"
+    ode = bb.simulate(**kw, method="ode", solver=TIGHT)
+    closed = fast.closed_form
+    # on a slope a ball whose slip stops rolls, then slides again before it leaves: the ODE
+    # takes those; on a horizontal plane the closed form covers most of the box
+    assert closed.mean() > (0.9 if inclination == 0.0 else 0.3), closed.mean()
+    for q in QUANTITIES:
+        err = relative_error(fast, ode, q, kw["speed"], kw["mu"])[closed]
+        assert err.max() <= REL, (q, err.max())
+    assert np.array_equal(fast.rolling, ode.rolling)
+    # fallback elements went through the ODE at the default tolerance
+    assert np.all(fast.n_steps[~closed] > 0) and np.all(fast.n_steps[closed] == 0)
+
+
+def test_both_regimes_and_the_friction_peak_before_the_force_peak_are_covered():
+    """The three tangential outcomes of the closed form: sliding throughout, slip stopping after
+    the force peak, and slip stopping before it (where the peak friction comes from the
+    compression table)."""
+    kw = draws(2000, 21, "kelvin-voigt")
+    fast = bb.simulate(**kw)
+    ode = bb.simulate(**kw, method="ode", solver=TIGHT)
+    table = _fast.normal_table("kelvin-voigt")
+    assert table.compression.shape[2] == 2 * _fast.COMPRESSION_NODES[2]
+    closed = fast.closed_form
+    slides = closed & ~fast.rolling
+    rolls = closed & fast.rolling
+    early = rolls & (fast.peak_friction_force < kw["mu"] * fast.peak_normal_force * (1 - 1e-6))
+    assert slides.sum() > 100 and rolls.sum() > 100 and early.sum() > 50
+    err = relative_error(fast, ode, "peak_friction_force", kw["speed"], kw["mu"])
+    assert err[early].max() <= REL
+
+
+def test_rigid_body_closed_form_is_what_the_fast_path_applies():
+    """MODEL.md §3, with e and P from the table: U' = U - mu (1+e) V sign(s0) when sliding
+    (no gravity), U' = U - (2/7) s0 when the slip stops."""
+    speed, angle = 3.0, 45.0
+    fast = bb.simulate(mu=[0.02, 0.4], eta=1.0, speed=speed, angle=angle, gravity=0.0)
+    assert fast.closed_form.all()
+    u, v = speed * np.sin(np.radians(angle)), speed * np.cos(np.radians(angle))
+    e = fast.rebound_normal_velocity / v
+    expected = bb.rigid_body_rebound(tangential_velocity=u, normal_speed=v, spin=0.0,
+                                     radius=bb.PAPER_BALL.radius, mu=np.array([0.02, 0.4]),
+                                     restitution=e)
+    np.testing.assert_allclose(fast.rebound_tangential_velocity, expected.tangential_velocity,
+                               rtol=1e-14)
+    np.testing.assert_allclose(fast.rebound_spin, expected.spin, rtol=1e-13)
+    assert fast.rolling.tolist() == expected.rolling.tolist() == [False, True]
+
+
+@pytest.mark.parametrize(("kwargs", "why"), [
+    (dict(speed=0.2, angle=60.0, eta=4.0), "outside the table: gravity number > 0.05"),
+    (dict(speed=3.0, angle=30.0, eta=1.0, mu=0.5, inclination=20.0),
+     "on a slope the slip stops: rolling then sliding again before separation"),
+    (dict(speed=3.0, angle=0.0, eta=1.0, inclination=10.0), "exactly zero slip on a slope"),
+])
+def test_outside_the_closed_form_the_ode_is_used(kwargs, why):
+    kw = dict(mu=0.2, spin=0.0) | kwargs
+    auto = bb.simulate(**kw)
+    assert not auto.closed_form, why
+    ode = bb.simulate(**kw, method="ode")
+    for q in QUANTITIES:
+        assert getattr(auto, q) == getattr(ode, q)
+
+
+def test_table_reproduces_tight_ode_solutions_of_the_scaled_problem():
+    """Between its nodes the Chebyshev table matches fresh tight ODE solutions of the unit
+    problem (m = k = V = 1) to 1e-8 (measured ~2e-10; the time of the peak ~3e-8)."""
+    rng = np.random.default_rng(5)
+    for law in ("kelvin-voigt", "hunt-crossley"):
+        t = _fast.normal_table(law)
+        x = rng.uniform(0, t.x_max, 40)
+        g = rng.uniform(0, t.gamma_max, 40)
+        res = _fast._solve_unit(law, x**t.power, g)
+        vals = np.empty(_fast.N_TABLE)
+        for i in range(x.size):
+            _fast._contract(t.coef, x[i], g[i], t.x_max, t.gamma_max, np.empty(t.coef.shape[0]),
+                            np.empty(t.coef.shape[1]), vals)
+            ref = {_fast.T_E: res[i, bb.model._kernel.R_V], _fast.T_TC: res[i, 0],
+                   _fast.T_FN: res[i, bb.model._kernel.R_FN_PEAK]}
+            for q, want in ref.items():
+                assert vals[q] == pytest.approx(want, rel=1e-8)
+
+
+def test_method_is_validated():
+    with pytest.raises(ValueError, match=r"`method` must be one of 'auto', 'ode'; got 'fast'"):
+        bb.simulate(mu=0.1, eta=1.0, speed=3.0, angle=60.0, method="fast")
