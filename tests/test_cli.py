@@ -72,3 +72,30 @@ def test_help_describes_every_option(command, capsys):
             assert option in out
         for unit in ("m/s", "deg", "rad/s", "kg/s", "Pa"):
             assert unit in out
+
+
+EXAMPLE = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples" / "paper.toml"
+
+
+def test_synth_then_kinematics(tmp_path, capsys):
+    out = tmp_path / "campaign"
+    assert main(["synth", str(EXAMPLE), "--n", "8", "--seed", "3", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "8 bounces, seed 3" in printed and "truth mu = 0.16" in printed
+    assert len(list((out / "trajectories").glob("*.csv"))) == 8
+    (out / "trajectories" / "broken.csv").write_text("t,x,y\n0,0,0\n")
+    table = tmp_path / "kin.csv"
+    code = main(["kinematics", str(out / "trajectories"), "--experiment", str(EXAMPLE),
+                 "--out", str(table)])
+    printed = capsys.readouterr().out
+    assert code == 1  # one file skipped: the exit status says so
+    assert "8 of 9 trajectory files gave kinematics" in printed
+    assert "broken.csv" in printed and "Pearson" in printed
+    trials = bb.load_trials(table, bb.load_experiment(EXAMPLE))
+    assert trials.n == 8 and trials.measured == {"incidence_speed", "incidence_angle"}
+
+
+def test_kinematics_on_an_empty_folder_is_an_error(tmp_path, capsys):
+    assert main(["kinematics", str(tmp_path), "--experiment", str(EXAMPLE), "--out",
+                 str(tmp_path / "t.csv")]) == 2
+    assert "bouncebayes kinematics: error:" in capsys.readouterr().err

@@ -13,6 +13,7 @@ import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ._version import __version__
@@ -186,6 +187,65 @@ def run_synth(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_kinematics_subcommand(sub) -> None:
+    p = sub.add_parser("kinematics", formatter_class=_formatter,
+                       help="turn a folder of tracked trajectories into a trial table",
+                       description="Fit the free flight before and after the impact of every "
+                                   "trajectory file in a folder (CSV with header t,x,y or "
+                                   "t,x,y,z in s and m, or Tracker's exported data text) and "
+                                   "write one row per bounce: incidence and rebound speed (m/s) "
+                                   "and angle (deg from the normal) with standard errors. Files "
+                                   "that cannot be used are listed with the reason; the others "
+                                   "are still processed. Exit status 0: all files used; 1: some "
+                                   "were skipped; 2: nothing could be done.")
+    p.add_argument("folder", type=Path, metavar="TRAJECTORY_DIR",
+                   help="folder of trajectory files (*.csv, *.txt)")
+    p.add_argument("--experiment", type=Path, required=True, metavar="EXPERIMENT.toml",
+                   help="experiment file: its [trajectories] table gives the camera-to-plane "
+                        "rotation (deg), the length unit and the drag model")
+    p.add_argument("--out", type=Path, required=True, metavar="TRIALS.csv",
+                   help="trial table to write")
+    p.add_argument("--min-points", type=int, default=5,
+                   help="free-flight samples needed on each side of the impact")
+    p.add_argument("--contact-guard", type=int, default=1,
+                   help="samples next to the impact left out of the fits on each side (they "
+                        "may be in contact: a 2 ms contact spans 2 samples at 1000 Hz)")
+    p.set_defaults(run=run_kinematics)
+
+
+def run_kinematics(args: argparse.Namespace) -> int:
+    from .data import load_experiment
+    from .density import summarize
+    from .kinematics import kinematics_from_folder, refer_to_contact, write_trial_table
+
+    experiment = load_experiment(args.experiment)
+    settings = experiment.trajectories
+    found = kinematics_from_folder(args.folder, rotation_deg=settings["rotation_deg"],
+                                   length_unit=settings["length_unit"],
+                                   drag=settings["drag"], min_points=args.min_points,
+                                   contact_guard=args.contact_guard)
+    print(found.summary())
+    if not found.results:
+        raise UserError(f"no usable trajectory in {args.folder}; nothing written")
+    results = refer_to_contact(found.results, experiment)
+    write_trial_table(args.out, results)
+    speed = [k.rebound_speed for k in results]
+    angle = [k.rebound_angle for k in results]
+    incidence = [k.incidence_speed for k in results]
+    print(f"trial table: {args.out} ({len(speed)} bounces)")
+    print(f"  incidence speed {np.mean(incidence):.4g} +- {np.std(incidence, ddof=1):.2g} m/s"
+          if len(speed) > 1 else "")
+    if len(speed) > 1:
+        summary = summarize(speed, angle)
+        d = summary.to_dict()
+        print(f"  rebound speed {summary.speed.mean:.4g} +- {summary.speed.sd:.2g} m/s, "
+              f"rebound angle {summary.angle.mean:.4g} +- {summary.angle.sd:.2g} deg")
+        print(f"  Pearson correlation of speed and angle: {summary.correlation.text()}")
+        for warning in d["warnings"]:
+            print(f"  warning: {warning}")
+    return 1 if found.failures else 0
+
+
 def add_demo_subcommand(sub) -> None:
     p = sub.add_parser("demo", formatter_class=_formatter,
                        help="run the main job on the bundled demo data",
@@ -226,6 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     add_simulate_subcommand(sub)
     add_synth_subcommand(sub)
+    add_kinematics_subcommand(sub)
     add_demo_subcommand(sub)
     return parser
 

@@ -18,3 +18,5 @@ from ._synth import Campaign as Campaign
 from ._synth import SynthesisError as SynthesisError
 from ._synth import synthesize as synthesize
 from ._synth import write_campaign as write_campaign
+from ._demo import DemoCampaign as DemoCampaign
+from ._demo import demo_campaign as demo_campaign
