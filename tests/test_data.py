@@ -295,3 +295,13 @@ def test_demo_campaign_is_what_its_seed_gives_and_slides_throughout():
     for col in ("rebound_speed", "rebound_angle", "incidence_speed", "incidence_angle"):
         np.testing.assert_allclose(shipped.column(col), again.trials.column(col), rtol=1e-12)
     assert len(list(demo.trajectories.glob("*.csv"))) == 55
+
+
+@pytest.mark.parametrize("prior", [Uniform(0.1, 0.5), Normal(0.2, 0.1), Normal(0.2, 0.1, 0.0),
+                                   Normal(1.0, 2.0, -1.0, 3.0), LogNormal(1.5, 0.4),
+                                   bb.data.LogUniform(1e-3, 10.0)])
+def test_closed_form_prior_densities_equal_scipy(prior):
+    """The closed-form log densities (used by the samplers) against scipy.stats."""
+    x = np.array([-2.0, -0.5, 0.0, 1e-4, 0.1, 0.3, 0.5, 1.0, 2.5, 20.0])
+    with np.errstate(divide="ignore"):
+        np.testing.assert_allclose(prior.logpdf(x), prior.dist.logpdf(x), rtol=1e-12)

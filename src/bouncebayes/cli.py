@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from ._cli_track import add_track_subcommand
 from ._version import __version__
 from .model import (NORMAL_LAWS, PAPER_BALL, STANDARD_GRAVITY, Ball, SimulationWarning, simulate,
                     simulate_history)
@@ -246,6 +247,63 @@ def run_kinematics(args: argparse.Namespace) -> int:
     return 1 if found.failures else 0
 
 
+def add_infer_subcommand(sub) -> None:
+    from .inference import LIKELIHOODS, SAMPLERS, SamplerConfig
+
+    d = SamplerConfig()
+    p = sub.add_parser("infer", formatter_class=_formatter,
+                       help="posterior of the contact parameters from a trial table",
+                       description="Bayesian calibration: the posterior of the parameters listed "
+                                   "under [parameters] in the experiment file, given the "
+                                   "rebounds of a trial table. Writes DIR/posterior.nc (ArviZ "
+                                   "InferenceData) and DIR/summary.json, and prints a table. "
+                                   "Same seed and inputs: identical draws.")
+    p.add_argument("experiment", type=Path, metavar="EXPERIMENT.toml", help="experiment file")
+    p.add_argument("trials", type=Path, metavar="TRIALS.csv",
+                   help="trial table (rebound_speed in m/s, rebound_angle in deg, ...)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    p.add_argument("--likelihood", choices=LIKELIHOODS, default="gaussian",
+                   help="gaussian: every bounce = model + measurement noise (the uncertainty "
+                        "of one true value); kde: the paper's (density of the measured "
+                        "rebounds at the simulated one); consistent: data-consistent inversion "
+                        "(the parameters' bounce-to-bounce distribution)")
+    p.add_argument("--sampler", choices=SAMPLERS, default="mh",
+                   help="mh: the paper's Metropolis-Hastings; ensemble: emcee; grid: exact "
+                        "quadrature (up to 3 parameters)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (recorded in the outputs)")
+    p.add_argument("--noise", choices=("auto", "given", "inferred"), default="auto",
+                   help="gaussian likelihood: the table's standard errors (given), noise levels "
+                        "inferred as extra parameters, or given when every trial has them")
+    p.add_argument("--draws", type=int, default=d.draws, help="posterior draws kept in all")
+    p.add_argument("--chains", type=int, default=d.chains, help="mh chains")
+    p.add_argument("--burn-in", type=int, default=d.burn_in,
+                   help="mh iterations discarded per chain (proposal tuned meanwhile)")
+    p.add_argument("--thin", type=int, default=d.thin, help="mh: keep every THIN-th iteration")
+    p.add_argument("--walkers", type=int, default=d.walkers, help="ensemble walkers")
+    p.add_argument("--grid-points", type=int, default=None,
+                   help="grid points per parameter (default 2048 / 512 / 96 for 1 / 2 / 3 "
+                        "parameters)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=run_infer)
+
+
+def run_infer(args: argparse.Namespace) -> int:
+    from .data import load_experiment, load_trials
+    from .inference import SamplerConfig, format_table, infer, write_outputs
+
+    experiment = load_experiment(args.experiment)
+    trials = load_trials(args.trials, experiment)
+    config = SamplerConfig(draws=args.draws, chains=args.chains, burn_in=args.burn_in,
+                           thin=args.thin, walkers=args.walkers, grid_points=args.grid_points)
+    result = infer(experiment, trials, likelihood=args.likelihood, sampler=args.sampler,
+                   seed=args.seed, config=config, noise=args.noise,
+                   progress=not args.quiet and sys.stderr.isatty())
+    paths = write_outputs(result, args.out)
+    print(format_table(result))
+    print("\n".join(f"{name}: {path}" for name, path in paths.items()))
+    return 0
+
+
 def add_demo_subcommand(sub) -> None:
     p = sub.add_parser("demo", formatter_class=_formatter,
                        help="run the main job on the bundled demo data",
@@ -287,6 +345,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_simulate_subcommand(sub)
     add_synth_subcommand(sub)
     add_kinematics_subcommand(sub)
+    add_infer_subcommand(sub)
+    add_track_subcommand(sub)
     add_demo_subcommand(sub)
     return parser
 

@@ -5,6 +5,7 @@ from ._experiment import Incidence as Incidence
 from ._experiment import load_experiment as load_experiment
 from ._experiment import parse_experiment as parse_experiment
 from ._priors import LogNormal as LogNormal
+from ._priors import LogUniform as LogUniform
 from ._priors import Normal as Normal
 from ._priors import Prior as Prior
 from ._priors import Uniform as Uniform

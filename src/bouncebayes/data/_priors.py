@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal, get_args
 
 import numpy as np
@@ -20,6 +21,9 @@ class _Prior:
     def dist(self):  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def _logpdf(self, x: np.ndarray) -> np.ndarray:
+        return self.dist.logpdf(x)
+
     @property
     def support(self) -> tuple[float, float]:
         """(low, high) of the support; infinite ends where unbounded."""
@@ -27,8 +31,9 @@ class _Prior:
         return float(low), float(high)
 
     def logpdf(self, x) -> np.ndarray:
-        """Log density (``-inf`` outside the support)."""
-        return self.dist.logpdf(np.asarray(x, dtype=float))
+        """Log density (``-inf`` outside the support); closed forms, since samplers call it
+        for every proposal (scipy.stats is checked against them in the tests)."""
+        return self._logpdf(np.asarray(x, dtype=float))
 
     def sample(self, rng: np.random.Generator, size=None) -> np.ndarray:
         """Draws with the explicit generator ``rng``."""
@@ -64,7 +69,11 @@ class Uniform(_Prior):
     high: float
     kind: str = "uniform"
 
-    @property
+    def _logpdf(self, x):
+        inside = (x >= self.low) & (x <= self.high)
+        return np.where(inside, -math.log(self.high - self.low), -np.inf)
+
+    @cached_property
     def dist(self):
         return stats.uniform(loc=self.low, scale=self.high - self.low)
 
@@ -83,7 +92,15 @@ class Normal(_Prior):
     high: float = math.inf
     kind: str = "normal"
 
-    @property
+    def _logpdf(self, x):
+        z = (x - self.loc) / self.scale
+        a, b = (self.low - self.loc) / self.scale, (self.high - self.loc) / self.scale
+        mass = float(stats.norm.cdf(b) - stats.norm.cdf(a))  # of the untruncated normal
+        log_norm = math.log(self.scale * math.sqrt(2 * math.pi) * mass)
+        inside = (x >= self.low) & (x <= self.high)
+        return np.where(inside, -0.5 * z * z - log_norm, -np.inf)
+
+    @cached_property
     def dist(self):
         a, b = (self.low - self.loc) / self.scale, (self.high - self.loc) / self.scale
         if math.isinf(a) and math.isinf(b):
@@ -105,7 +122,14 @@ class LogNormal(_Prior):
     sd_log: float
     kind: str = "lognormal"
 
-    @property
+    def _logpdf(self, x):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lx = np.log(x)
+            z = (lx - math.log(self.median)) / self.sd_log
+            out = -0.5 * z * z - lx - math.log(self.sd_log * math.sqrt(2 * math.pi))
+        return np.where(x > 0, out, -np.inf)
+
+    @cached_property
     def dist(self):
         return stats.lognorm(s=self.sd_log, scale=self.median)
 
@@ -113,4 +137,27 @@ class LogNormal(_Prior):
         return f"log-normal(median {self.median:g}, sd of log {self.sd_log:g})"
 
 
-Prior = Uniform | Normal | LogNormal
+@dataclass(frozen=True)
+class LogUniform(_Prior):
+    """Log-uniform (Jeffreys) on ``[low, high]``, ``0 < low < high``: the scale-free prior of the
+    noise levels that the ``gaussian`` likelihood infers."""
+
+    low: float
+    high: float
+    kind: str = "loguniform"
+
+    def _logpdf(self, x):
+        inside = (x >= self.low) & (x <= self.high)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = -np.log(x) - math.log(math.log(self.high / self.low))
+        return np.where(inside, out, -np.inf)
+
+    @cached_property
+    def dist(self):
+        return stats.loguniform(self.low, self.high)
+
+    def describe(self) -> str:
+        return f"log-uniform on [{self.low:g}, {self.high:g}]"
+
+
+Prior = Uniform | Normal | LogNormal | LogUniform

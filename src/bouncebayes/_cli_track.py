@@ -1,0 +1,190 @@
+"""The ``track`` sub-command: videos in, ``DIR/<name>.csv`` trajectories and overlays out.
+
+``add_track_subcommand(subparsers)`` registers it; ``run_track(args)`` parses the option
+strings, calls :func:`bouncebayes.tracking.track_video` once per input and writes the files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import platform
+import sys
+from collections import Counter
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ._io import write_json
+from ._validate import check_scalar
+from .tracking import (EDGE_FIT, METHOD_NAMES, PAPER_BALL_DIAMETER, POLARITIES, Surface,
+                       TrackedVideo, TrackerConfig, overlay_image, track_video,
+                       write_trajectory_csv)
+
+
+def add_track_subcommand(subparsers) -> None:
+    p = subparsers.add_parser(
+        "track", formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        help="track the ball in high-speed videos and write plane-frame trajectories",
+        description="Find the ball in every frame of each video (sub-pixel; background model "
+                    "+ coverage centroid, or a disk fit where the ball is cut by the frame "
+                    "edge), convert pixels to metres and rotate into the plane frame: x along "
+                    "the surface in the direction of travel, y along its outward normal. "
+                    "Writes DIR/<name>.csv (t,x,y in s and m, found frames only; t = frame "
+                    "index / fps), DIR/<name>.overlay.png (positions over a superposition of "
+                    "frames) and DIR/<name>.track.json (per-frame pixels, settings, "
+                    "provenance). Pixel coordinates have the origin at the top-left of the "
+                    "frame.")
+    p.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
+                   help="video files (mp4, avi, mov, mkv, ...) or folders of image frames "
+                        "(PNG, TIFF, JPEG, BMP; sorted naturally)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    p.add_argument("--fps", type=float, metavar="F",
+                   help="capture frame rate; overrides the file's (high-speed cameras often "
+                        "store a playback rate such as 30); required for image folders")
+    scale = p.add_mutually_exclusive_group()
+    scale.add_argument("--ball-diameter", type=float, default=PAPER_BALL_DIAMETER,
+                       metavar="METRES",
+                       help="scale from the ball's diameter and its median fitted radius "
+                            "(the paper's ball by default)")
+    scale.add_argument("--reference", metavar="X1,Y1,X2,Y2,METRES",
+                       help="scale from two pixel points a known distance apart")
+    p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
+                   help="two pixel points on the surface line; if not given, it is detected as "
+                        "the longest straight edge of the background")
+    p.add_argument("--polarity", choices=POLARITIES, default=TrackerConfig.polarity,
+                   help="ball brighter or darker than its surroundings, or decide from the "
+                        "video")
+    p.add_argument("--min-contrast", type=float, default=TrackerConfig.min_contrast,
+                   metavar="GREY", help="smallest ball-background difference, grey levels "
+                                        "(0-255)")
+    p.add_argument("--threshold-sigma", type=float, default=TrackerConfig.threshold_sigma,
+                   metavar="K", help="detection threshold in noise standard deviations (the "
+                                     "threshold is the larger of this and --min-contrast)")
+    p.add_argument("--background", type=Path, metavar="IMAGE",
+                   help="an image of the scene without the ball; if not given, the per-pixel "
+                        "median of frames (give one if the ball rests or moves slowly)")
+    p.set_defaults(run=run_track)
+
+
+def parse_numbers(option: str, text: str, names: tuple[str, ...]) -> list[float]:
+    """``"1,2.5,3"`` -> floats, one per name; ``ValueError`` naming the option otherwise."""
+    form = ",".join(names)
+    parts = text.split(",")
+    try:
+        values = [float(v) for v in parts]
+    except ValueError:
+        values = []
+    if len(values) != len(names) or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"`{option}` must be {form} ({len(names)} numbers separated by "
+                         f"commas); got {text!r}")
+    return values
+
+
+def run_track(args: argparse.Namespace) -> int:
+    config = TrackerConfig(polarity=args.polarity, min_contrast=args.min_contrast,
+                           threshold_sigma=args.threshold_sigma)
+    reference = surface = None
+    if args.reference is not None:
+        x1, y1, x2, y2, metres = parse_numbers("--reference", args.reference,
+                                               ("X1", "Y1", "X2", "Y2", "METRES"))
+        reference = ((x1, y1), (x2, y2), metres)
+    if args.surface is not None:
+        x1, y1, x2, y2 = parse_numbers("--surface", args.surface, ("X1", "Y1", "X2", "Y2"))
+        surface = Surface.from_points((x1, y1), (x2, y2))
+    if args.fps is not None:
+        check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
+    check_scalar("--ball-diameter", args.ball_diameter, unit="m", low=0.0, low_open=True)
+    check_unique_names(args.inputs)
+    failed = []
+    for path in args.inputs:
+        try:
+            result = track_video(path, fps=args.fps, config=config,
+                                 ball_diameter=args.ball_diameter, reference=reference,
+                                 surface=surface, background=args.background)
+        except ValueError as exc:  # InputFileError included: it names the file
+            if len(args.inputs) == 1:
+                raise
+            print(f"bouncebayes track: skipped {exc}", file=sys.stderr)
+            failed.append(str(path))
+            continue
+        files = write_outputs(result, args)
+        print(summary_line(result, files))
+    if failed:
+        raise ValueError(f"{len(failed)} of {len(args.inputs)} inputs could not be tracked "
+                         f"({', '.join(failed)}); see the messages above")
+    return 0
+
+
+def output_name(path: Path) -> str:
+    return path.name if path.is_dir() else path.stem
+
+
+def check_unique_names(inputs: list[Path]) -> None:
+    names = Counter(output_name(p) for p in inputs)
+    clash = [str(p) for p in inputs if names[output_name(p)] > 1]
+    if clash:
+        raise ValueError(f"inputs {', '.join(clash)} would write the same DIR/<name>.csv: "
+                         "rename or track them in separate runs")
+
+
+def write_outputs(result: TrackedVideo, args: argparse.Namespace) -> dict[str, Path]:
+    name, out = result.source.name, args.out
+    t, x, y = result.trajectory
+    files = {"trajectory": out / f"{name}.csv", "overlay": out / f"{name}.overlay.png",
+             "record": out / f"{name}.track.json"}
+    write_trajectory_csv(files["trajectory"], t, x, y)
+    overlay_image(result.source.frames, result.track, files["overlay"],
+                  calibration=result.calibration, surface=result.surface, title=name)
+    write_json(files["record"], record(result, args, files))
+    return files
+
+
+def _floats(a) -> list:
+    return [None if not math.isfinite(v) else round(float(v), 6) for v in np.ravel(a)]
+
+
+def record(result: TrackedVideo, args: argparse.Namespace, files: dict[str, Path]) -> dict:
+    """The provenance and per-frame pixel track written beside the trajectory."""
+    from . import __version__
+
+    src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
+    n, h, w = src.frames.shape
+    options = {k: (str(v) if isinstance(v, Path) else [str(p) for p in v]
+                   if k == "inputs" else v) for k, v in vars(args).items() if k != "run"}
+    return {
+        "bouncebayes_version": __version__,
+        "input": str(src.path),
+        "options": options,
+        "frames": n, "width": w, "height": h,
+        "fps": src.fps, "fps_source": src.fps_source,
+        "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
+                    "threshold_grey": round(tr.threshold, 3),
+                    "background": str(args.background) if args.background else
+                    "per-pixel median of frames"},
+        "ball_radius_px": round(tr.ball_radius, 4),
+        "calibration": {"metres_per_px": cal.metres_per_px, "source": cal.source},
+        "surface": {"point_px": list(srf.point), "direction": list(srf.direction),
+                    "angle_deg": srf.angle, "source": srf.source},
+        "found": int(tr.found.sum()),
+        "not_found_frames": np.flatnonzero(~tr.found).tolist(),
+        "edge_fit_frames": np.flatnonzero(tr.method == EDGE_FIT).tolist(),
+        "per_frame": {"u_px": _floats(tr.centre[:, 0]), "v_px": _floats(tr.centre[:, 1]),
+                      "radius_px": _floats(tr.radius), "method": tr.method.tolist(),
+                      "methods": {str(k): v for k, v in METHOD_NAMES.items()}},
+        "outputs": {k: str(v) for k, v in files.items()},
+        "environment": {"python": sys.version.split()[0], "numpy": np.__version__,
+                        "opencv": cv2.__version__, "platform": platform.platform()},
+    }
+
+
+def summary_line(result: TrackedVideo, files: dict[str, Path]) -> str:
+    src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
+    n, found = len(tr.found), int(tr.found.sum())
+    edge = int((tr.method == EDGE_FIT).sum())
+    return (f"{src.name}: ball in {found}/{n} frames ({edge} cut by the frame edge, "
+            f"{n - found} not found), radius {tr.ball_radius:.2f} px, "
+            f"{cal.metres_per_px * 1e3:.4g} mm/px ({cal.source}), surface at "
+            f"{srf.angle:.2f} deg ({srf.source}), {src.fps:g} fps ({src.fps_source})\n"
+            f"  -> {files['trajectory']}  {files['overlay']}  {files['record']}")

@@ -1,0 +1,169 @@
+"""Honest answers from draws: intervals, diagnostics, identifiability, modes, prior bounds."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import signal, stats
+
+RHAT_LIMIT = 1.01
+ESS_LIMIT = 400
+ROLLING_LIMIT = 0.95  # share of (draw, bounce) pairs rolling above which mu is not identified
+
+
+def import_arviz():
+    """ArviZ 0.x announces its refactor with a FutureWarning at import; silence only that."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        import arviz
+
+    return arviz
+
+
+@dataclass(frozen=True)
+class ParameterSummary:
+    """Posterior summary of one parameter (values in ``unit``)."""
+
+    name: str
+    unit: str
+    prior: str
+    mean: float
+    sd: float
+    median: float
+    ci90: tuple[float, float]
+    r_hat: float | None
+    ess_bulk: float | None
+    ess_tail: float | None
+    identifiable: bool
+    bound: dict | None  #: {"side": "lower"|"upper", "value", "level"} when not identified
+    modes: tuple[float, ...]  #: locations of the modes of the marginal (several: multimodal)
+    why_not_identified: str = ""
+
+    def paper_form(self) -> str:
+        """``mu = 0.160 ± 0.021`` (centre and half-width of the 90 % interval), or a bound."""
+        unit = f" {self.unit}" if self.unit else ""
+        if self.bound is not None:
+            op = ">" if self.bound["side"] == "lower" else "<"
+            return (f"{self.name} {op} {_fmt(self.bound['value'], self.sd)}{unit} at "
+                    f"{100 * self.bound['level']:.0f} %")
+        lo, hi = self.ci90
+        half = 0.5 * (hi - lo)
+        digits = _decimals(half)
+        return f"{self.name} = {0.5 * (lo + hi):.{digits}f} ± {half:.{digits}f}{unit}"
+
+    def to_dict(self) -> dict:
+        out = asdict(self)
+        out["ci90"] = list(self.ci90)
+        out["modes"] = list(self.modes)
+        out["paper_form"] = self.paper_form()
+        return out
+
+
+def _decimals(half_width: float) -> int:
+    """Decimals that show two significant digits of the half-width."""
+    if not math.isfinite(half_width) or half_width <= 0:
+        return 4
+    return max(0, 1 - int(math.floor(math.log10(half_width))))
+
+
+def _fmt(value: float, scale: float) -> str:
+    return f"{value:.{_decimals(scale)}f}"
+
+
+def diagnostics(samples: np.ndarray, names: tuple[str, ...]) -> dict[str, dict]:
+    """R-hat (rank-normalised, split) and bulk/tail ESS from ArviZ, per parameter."""
+    az = import_arviz()
+    data = az.convert_to_dataset({n: samples[..., i] for i, n in enumerate(names)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # e.g. R-hat of a single chain
+        rhat = az.rhat(data) if samples.shape[0] > 1 else None
+        bulk = az.ess(data, method="bulk")
+        tail = az.ess(data, method="tail")
+    return {n: {"r_hat": None if rhat is None else _num(rhat[n]),
+                "ess_bulk": _num(bulk[n]), "ess_tail": _num(tail[n])} for n in names}
+
+
+def _num(x) -> float | None:
+    v = float(np.asarray(x))
+    return v if math.isfinite(v) else None
+
+
+def marginal_modes(x: np.ndarray, low: float, high: float) -> tuple[float, ...]:
+    """Modes of a marginal: peaks of a Gaussian KDE of the draws holding >= 10 % of the
+    height of the highest peak and separated by a dip below 80 % of the lower peak."""
+    x = x[np.isfinite(x)]
+    if x.size < 20 or np.ptp(x) == 0:
+        return (float(np.median(x)),) if x.size else ()
+    sub = x[:: max(1, x.size // 4000)]
+    grid = np.linspace(max(low, x.min()), min(high, x.max()), 512)
+    density = stats.gaussian_kde(sub)(grid)
+    peaks, props = signal.find_peaks(np.concatenate([[0], density, [0]]),
+                                     prominence=0.0)
+    peaks = peaks - 1
+    keep = [p for p, prom in zip(peaks, props["prominences"], strict=True)
+            if density[p] >= 0.1 * density.max() and prom >= 0.2 * density[p]]
+    return tuple(float(grid[p]) for p in sorted(keep, key=lambda p: -density[p]))
+
+
+def summarize_parameter(name, unit, prior, x, diag, rolling_share=None) -> ParameterSummary:
+    """Summary of one parameter's draws ``x`` (all chains flattened)."""
+    lo, hi = np.quantile(x, [0.05, 0.95])
+    box = prior.box(1e-6)
+    why = ""
+    bound = None
+    if name == "mu" and rolling_share is not None and rolling_share >= ROLLING_LIMIT:
+        why = (f"{100 * rolling_share:.0f} % of the simulated bounces of the posterior leave "
+               f"rolling, and a rolling rebound does not depend on mu: the data only bound mu "
+               f"from below")
+        bound = {"side": "lower", "value": float(np.quantile(x, 0.05)), "level": 0.95}
+    elif np.std(x) > 0.8 * prior.sd and math.isfinite(prior.sd):
+        why = (f"the posterior sd ({np.std(x):.3g}) is over 80 % of the prior sd "
+               f"({prior.sd:.3g}): the data say little about {name}")
+    return ParameterSummary(name=name, unit=unit, prior=prior.describe(), mean=float(np.mean(x)),
+                            sd=float(np.std(x, ddof=1)), median=float(np.median(x)),
+                            ci90=(float(lo), float(hi)), r_hat=diag["r_hat"],
+                            ess_bulk=diag["ess_bulk"], ess_tail=diag["ess_tail"],
+                            identifiable=not why, bound=bound,
+                            modes=marginal_modes(x, *box), why_not_identified=why)
+
+
+def warnings_for(summaries: list[ParameterSummary], samples: np.ndarray, priors,
+                 sampler: str) -> list[str]:
+    """Plain-language warnings: chains disagreeing, too few effective draws, several modes,
+    draws piled against a prior bound, parameters the data do not identify."""
+    out = []
+    flat = samples.reshape(-1, samples.shape[-1])
+    for i, s in enumerate(summaries):
+        if s.r_hat is not None and s.r_hat > RHAT_LIMIT:
+            out.append(f"{s.name}: the chains disagree (R-hat {s.r_hat:.3f} > {RHAT_LIMIT}); "
+                       f"run longer (--draws, --burn-in) or check for several modes")
+        if sampler != "grid" and s.ess_bulk is not None and min(
+                s.ess_bulk, s.ess_tail or np.inf) < ESS_LIMIT:
+            out.append(f"{s.name}: only {min(s.ess_bulk, s.ess_tail or np.inf):.0f} effective "
+                       f"draws (< {ESS_LIMIT}); intervals are rough: run longer (--draws)")
+        if len(s.modes) > 1:
+            where = ", ".join(f"{m:.4g}" for m in s.modes)
+            out.append(f"{s.name}: the posterior has {len(s.modes)} modes (at {where}"
+                       f"{' ' + s.unit if s.unit else ''}); a mean and a single interval "
+                       f"do not describe it")
+        out += _pile_warning(s, flat[:, i], priors[i])
+        if not s.identifiable:
+            out.append(f"{s.name} is not identified: {s.why_not_identified}")
+    return out
+
+
+def _pile_warning(s: ParameterSummary, x: np.ndarray, prior) -> list[str]:
+    low, high = prior.support
+    out = []
+    for side, edge in (("lower", low), ("upper", high)):
+        if not math.isfinite(edge) or not all(map(math.isfinite, prior.support)):
+            continue
+        near = np.mean(np.abs(x - edge) <= 0.01 * (high - low))
+        if near > 0.05:
+            out.append(f"{s.name}: {100 * near:.0f} % of the draws lie within 1 % of the prior's "
+                       f"{side} bound ({edge:g}{' ' + s.unit if s.unit else ''}): the posterior "
+                       f"piles against it; widen the prior if values beyond are physical")
+    return out
