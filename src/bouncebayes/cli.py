@@ -304,33 +304,96 @@ def run_infer(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_run_options(p) -> None:
+    from .inference import LIKELIHOODS, SAMPLERS
+
+    p.add_argument("--likelihood", choices=LIKELIHOODS, default="gaussian",
+                   help="see `bouncebayes infer --help`")
+    p.add_argument("--sampler", choices=SAMPLERS, default="mh",
+                   help="see `bouncebayes infer --help`")
+    p.add_argument("--seed", type=int, default=0, help="random seed (recorded in the outputs)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def add_run_subcommand(sub) -> None:
+    p = sub.add_parser("run", formatter_class=_formatter,
+                       help="the whole job: data -> kinematics -> inference -> propagation -> "
+                            "figures -> report",
+                       description="Run every stage on DATA and put all results in DIR: "
+                                   "trial table, posterior.nc, summary.json, propagation, "
+                                   "figures (PNG and SVG) and report.html. DATA is a trial "
+                                   "table (CSV), a folder of trajectory files (t,x,y in s and m, "
+                                   "or Tracker text), or a folder of videos (mp4, avi, mov, or "
+                                   "sub-folders of PNG/TIFF frames).")
+    p.add_argument("experiment", type=Path, metavar="EXPERIMENT.toml", help="experiment file")
+    p.add_argument("data", type=Path, metavar="DATA",
+                   help="trial table, trajectory folder or video folder")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    _add_run_options(p)
+    p.set_defaults(run=run_run)
+
+
+def _run(experiment, data, args, truth=None) -> int:
+    from .pipeline import run
+
+    def log(message):
+        print(message, file=sys.stderr)
+
+    outcome = run(experiment, data, args.out, likelihood=args.likelihood, sampler=args.sampler,
+                  seed=args.seed, progress=not args.quiet and sys.stderr.isatty(), log=log,
+                  truth=truth)
+    print(outcome.table)
+    print(outcome.verdict)
+    total = sum(outcome.stage_seconds.values())
+    print(f"\nreport: {outcome.report}  (all results in {outcome.folder}; {total:.1f} s)")
+    return 0
+
+
+def run_run(args: argparse.Namespace) -> int:
+    return _run(args.experiment, args.data, args)
+
+
+def add_report_subcommand(sub) -> None:
+    p = sub.add_parser("report", formatter_class=_formatter,
+                       help="redraw the figures and write DIR/report.html of a run folder",
+                       description="Write DIR/report.html, one self-contained file (figures "
+                                   "embedded) that opens offline, from the results in DIR "
+                                   "(posterior.nc, summary.json, experiment.toml, trials.csv; "
+                                   "the posterior is propagated first if DIR has no "
+                                   "propagation yet).")
+    p.add_argument("folder", type=Path, metavar="DIR", help="a run folder")
+    p.set_defaults(run=run_report)
+
+
+def run_report(args: argparse.Namespace) -> int:
+    from .pipeline import report_folder
+
+    print(f"report: {report_folder(args.folder)}")
+    return 0
+
+
 def add_demo_subcommand(sub) -> None:
     p = sub.add_parser("demo", formatter_class=_formatter,
-                       help="run the main job on the bundled demo data",
-                       description="Run bouncebayes on the bundled demo: for now, simulate the "
-                                   "paper's bounce (mu = 0.16, eta = 1.35 kg/s, 3 m/s at 60 deg) "
-                                   "and write its figure and JSON summary.")
+                       help="run the whole job on the bundled demo campaign",
+                       description="Run the whole job (kinematics, inference, propagation, "
+                                   "figures, report) on the bundled demo campaign: 55 synthetic "
+                                   "bounces of the paper's setup (trajectories at 1000 Hz) "
+                                   "generated with mu = 0.16 and eta = 1.35 kg/s, which the "
+                                   "report shows beside the results.")
     p.add_argument("--out", type=Path, default=Path("demo-output"), metavar="DIR",
                    help="output folder")
+    _add_run_options(p)
     p.set_defaults(run=run_demo)
 
 
 def run_demo(args: argparse.Namespace) -> int:
-    from ._io import write_json
-    from .plots import plot_bounce, save_figure
+    from .data import demo_campaign
 
-    kwargs = dict(mu=0.16, eta=1.35, speed=3.0, angle=60.0)
-    history = simulate_history(PAPER_BALL, **kwargs)
-    row = history.bounce.item()
-    figure = save_figure(plot_bounce(history, title="The paper's bounce: mu = 0.16, "
-                                                    "eta = 1.35 kg/s, 3 m/s at 60 deg"),
-                         args.out / "bounce.png")
-    write_json(args.out / "bounce.json", {"inputs": kwargs, "results": row,
-                                          "version": __version__})
-    print(format_bounce_table(row, argparse.Namespace(normal_law="kelvin-voigt", spin=0.0,
-                                                      **kwargs)))
-    print(f"\nfigure: {figure}\nsummary: {args.out / 'bounce.json'}")
-    return 0
+    demo = demo_campaign()
+    print(f"demo campaign: {demo.truth['n']} bounces from {demo.folder} (true mu = "
+          f"{demo.truth['population']['mu']:g}, eta = {demo.truth['population']['eta']:g} "
+          f"kg/s)", file=sys.stderr)
+    return _run(demo.experiment, demo.trajectories, args, truth=demo.folder / "truth.json")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -347,6 +410,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_kinematics_subcommand(sub)
     add_infer_subcommand(sub)
     add_track_subcommand(sub)
+    add_run_subcommand(sub)
+    add_report_subcommand(sub)
     add_demo_subcommand(sub)
     return parser
 

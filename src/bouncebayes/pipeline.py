@@ -1,0 +1,153 @@
+"""The whole job: data (trial table, trajectories or videos) -> kinematics -> inference ->
+propagation -> figures -> report, every result in one run folder."""
+
+from __future__ import annotations
+
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from ._errors import InputFileError
+from ._io import write_text
+from .data import load_experiment, load_trials
+from .inference import SamplerConfig, format_table, infer, write_outputs
+from .propagation import propagate, write_propagation
+from .report import EXPERIMENT_FILE, TRIALS_FILE, load_truth, make_figures, render_report
+
+TRAJECTORY_SUFFIXES = (".csv", ".txt")
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """Where a run put its results, and its printed summary."""
+
+    folder: Path
+    report: Path
+    table: str
+    verdict: str
+    stage_seconds: dict
+
+
+def data_kind(data: Path) -> str:
+    """``"table"`` (a CSV file), ``"trajectories"`` or ``"videos"`` (a folder)."""
+    from .tracking import IMAGE_SUFFIXES, VIDEO_SUFFIXES
+
+    if data.is_file():
+        return "table"
+    if not data.is_dir():
+        raise InputFileError(data, "no such file or folder (expected a trial table, or a folder "
+                                   "of trajectory files or videos)")
+    files = [p for p in data.iterdir() if p.is_file()]
+    if any(p.suffix.lower() in VIDEO_SUFFIXES for p in files) or any(
+            d.is_dir() and any(f.suffix.lower() in IMAGE_SUFFIXES for f in d.iterdir())
+            for d in data.iterdir()):
+        return "videos"
+    if any(p.suffix.lower() in TRAJECTORY_SUFFIXES for p in files):
+        return "trajectories"
+    raise InputFileError(data, "holds neither trajectory files (*.csv, *.txt) nor videos")
+
+
+def _trials_from_data(data: Path, kind: str, experiment, out: Path, log) -> Path:
+    """The trial table of the run folder, made from the data as needed."""
+    from .kinematics import kinematics_from_folder, refer_to_contact, write_trial_table
+
+    table = out / TRIALS_FILE
+    if kind == "table":
+        write_text(table, data.read_text(encoding="utf-8"))
+        return table
+    folder = data
+    if kind == "videos":
+        folder = _track_videos(data, experiment, out, log)
+    s = experiment.trajectories
+    found = kinematics_from_folder(folder, rotation_deg=s["rotation_deg"],
+                                   length_unit=s["length_unit"], drag=s["drag"])
+    log(found.summary())
+    if not found.results:
+        raise InputFileError(folder, "no usable trajectory: nothing to infer from")
+    write_trial_table(table, refer_to_contact(found.results, experiment))
+    return table
+
+
+def _track_videos(data: Path, experiment, out: Path, log) -> Path:
+    from .tracking import IMAGE_SUFFIXES, VIDEO_SUFFIXES, overlay_image, track_video, \
+        write_trajectory_csv
+
+    inputs = sorted(p for p in data.iterdir() if (p.is_file() and p.suffix.lower() in
+                                                  VIDEO_SUFFIXES) or (p.is_dir() and any(
+        f.suffix.lower() in IMAGE_SUFFIXES for f in p.iterdir())))
+    folder = out / "trajectories"
+    for path in inputs:
+        try:
+            tracked = track_video(path, ball_diameter=experiment.ball.diameter)
+        except InputFileError as exc:
+            log(f"  skipped: {exc}")
+            continue
+        write_trajectory_csv(folder / f"{path.stem}.csv", tracked.trajectory)
+        overlay_image(tracked, out / "tracking" / f"{path.stem}.overlay.png")
+    return folder
+
+
+def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
+        likelihood: str = "gaussian", sampler: str = "mh", seed: int = 0,
+        config: SamplerConfig | None = None, progress: bool = False,
+        log: Callable[[str], None] = print, truth: Path | None = None) -> RunOutcome:
+    """Run every stage; each writes its results atomically into ``out``."""
+    out, data = Path(out), Path(data)
+    experiment_path = Path(experiment_path)
+    times = {}
+
+    def stage(k, name):
+        log(f"[{k}/5] {name} ...")
+        return time.perf_counter()
+
+    start = stage(1, "data and kinematics")
+    experiment = load_experiment(experiment_path)
+    kind = data_kind(data)
+    table = _trials_from_data(data, kind, experiment, out, log)
+    write_text(out / EXPERIMENT_FILE, experiment_path.read_text(encoding="utf-8"))
+    if truth is not None:
+        shutil.copyfile(truth, out / "truth.json")
+    experiment = load_experiment(out / EXPERIMENT_FILE)
+    trials = load_trials(table, experiment)
+    times["data"] = time.perf_counter() - start
+
+    start = stage(2, f"inference ({likelihood} likelihood, {sampler} sampler)")
+    result = infer(experiment, trials, likelihood=likelihood, sampler=sampler, seed=seed,
+                   config=config, progress=progress)
+    write_outputs(result, out)
+    times["inference"] = time.perf_counter() - start
+
+    start = stage(3, "propagation of the posterior")
+    prop = propagate(result)
+    write_propagation(prop, out)
+    times["propagation"] = time.perf_counter() - start
+
+    start = stage(4, "figures")
+    truth_values = load_truth(out)
+    figures = make_figures(result, prop, out, truth_values)
+    times["figures"] = time.perf_counter() - start
+
+    start = stage(5, "report")
+    report = render_report(result, prop.summary(), figures, out, truth_values)
+    times["report"] = time.perf_counter() - start
+    return RunOutcome(out, report, format_table(result), prop.match["verdict"], times)
+
+
+def report_folder(folder: str | Path) -> Path:
+    """Redraw the figures and rewrite ``report.html`` of a run folder from its files
+    (propagating the posterior first if the folder has no propagation yet)."""
+    from .propagation import load_propagation
+    from .report import load_result
+
+    folder = Path(folder)
+    result = load_result(folder)
+    if (folder / "propagation.json").is_file() and (folder / "propagation.npz").is_file():
+        prop = load_propagation(folder)
+    else:
+        prop = propagate(result)
+        write_propagation(prop, folder)
+    truth = load_truth(folder)
+    figures = make_figures(result, prop, folder, truth)
+    return render_report(result, prop.summary(), figures, folder, truth)

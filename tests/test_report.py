@@ -1,0 +1,126 @@
+"""Figures, the report, and the run/report/demo commands."""
+
+import json
+import os
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+from bouncebayes.cli import main
+from bouncebayes.pipeline import data_kind, report_folder
+
+FIGURES = ("data", "joint_posterior", "marginals", "trajectories", "predictive", "forces",
+           "contact_time", "diagnostics")
+
+
+def test_run_writes_every_output(small_run):
+    f = small_run.folder
+    for name in ("posterior.nc", "summary.json", "propagation.json", "propagation.npz",
+                 "report.html", "experiment.toml", "trials.csv", "truth.json"):
+        assert (f / name).is_file(), name
+    for key in FIGURES:
+        png, svg = f / "figures" / f"{key}.png", f / "figures" / f"{key}.svg"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert svg.read_text().lstrip().startswith("<?xml")
+    assert set(small_run.stage_seconds) == {"data", "inference", "propagation", "figures",
+                                            "report"}
+
+
+def test_report_is_self_contained_and_complete(small_run):
+    page = (small_run.folder / "report.html").read_text()
+    assert len(re.findall(r'<img src="data:image/png;base64,', page)) == len(FIGURES)
+    assert not re.search(r'(src|href)="(?!data:)', page), "no external resources"
+    summary = json.loads((small_run.folder / "summary.json").read_text())
+    for name, p in summary["parameters"].items():
+        assert p["paper_form"] in page
+    for text in ("Likelihood gaussian", "Sampler mh", "Provenance", "sha256", "true value",
+                 "Diagnostics and warnings", "What the posterior predicts", "Figure 8."):
+        assert text in page, text
+
+
+def test_report_command_rebuilds_from_the_files(small_run, tmp_path):
+    copy = tmp_path / "copy"
+    shutil.copytree(small_run.folder, copy)
+    (copy / "report.html").unlink()
+    shutil.rmtree(copy / "figures")
+    (copy / "propagation.json").unlink()  # missing propagation: computed again
+    assert main(["report", str(copy)]) == 0
+    assert (copy / "report.html").is_file() and (copy / "figures" / "forces.png").is_file()
+    assert (copy / "propagation.json").is_file()
+
+
+def test_report_of_a_folder_that_is_not_a_run(tmp_path, capsys):
+    assert main(["report", str(tmp_path)]) == 2
+    assert "not a bouncebayes run folder: posterior.nc is missing" in capsys.readouterr().err
+
+
+def test_data_kinds(demo, tmp_path):
+    assert data_kind(demo.trials) == "table"
+    assert data_kind(demo.trajectories) == "trajectories"
+    (tmp_path / "a.mp4").write_bytes(b"")
+    assert data_kind(tmp_path) == "videos"
+    with pytest.raises(ValueError, match="no such file or folder"):
+        data_kind(tmp_path / "nope")
+
+
+def _chromium() -> str | None:
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(_chromium() is None and not os.environ.get("BOUNCEBAYES_REQUIRE_BROWSER"),
+                    reason="Chromium not installed (CI installs it and sets "
+                           "BOUNCEBAYES_REQUIRE_BROWSER)")
+def test_report_in_a_headless_browser(small_run):
+    """The report opens offline in Debian's Chromium with no console errors, and every figure
+    is decoded (naturalWidth > 0)."""
+    from playwright.sync_api import sync_playwright
+
+    errors = []
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=_chromium(), headless=True, args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+            "--disable-component-update", "--disable-sync", "--no-first-run"])
+        page = browser.new_page()
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto((small_run.folder / "report.html").as_uri())
+        page.wait_for_load_state("load")
+        widths = page.eval_on_selector_all("img", "imgs => imgs.map(i => i.naturalWidth)")
+        title = page.title()
+        browser.close()
+    assert errors == []
+    assert len(widths) == len(FIGURES) and all(w > 0 for w in widths)
+    assert title.startswith("bouncebayes:")
+
+
+@pytest.mark.parametrize("command", ["run", "report", "demo", "infer", "kinematics", "synth",
+                                     "track"])
+def test_every_command_has_help_with_units(command, capsys):
+    with pytest.raises(SystemExit) as info:
+        main([command, "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "usage: bouncebayes " + command in out
+    assert "(default:" in out or command == "report"
+
+
+def test_demo_command(tmp_path, capsys):
+    """The demo prints intervals that cover the demo campaign's true values."""
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "report:" in printed and (out / "report.html").is_file()
+    summary = json.loads((out / "summary.json").read_text())
+    truth = json.loads((out / "truth.json").read_text())["population"]
+    for name, value in truth.items():
+        lo, hi = summary["parameters"][name]["ci90"]
+        assert lo <= value <= hi, (name, lo, value, hi)
+
+
+def test_run_on_a_missing_experiment(tmp_path, demo, capsys):
+    assert main(["run", str(tmp_path / "x.toml"), str(demo.trials), "--out",
+                 str(tmp_path / "o")]) == 2
+    assert "cannot read the experiment file" in capsys.readouterr().err
+    assert not (tmp_path / "o" / "report.html").exists()
