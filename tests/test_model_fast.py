@@ -66,7 +66,7 @@ def test_both_regimes_and_the_friction_peak_before_the_force_peak_are_covered():
     fast = bb.simulate(**kw)
     ode = bb.simulate(**kw, method="ode", solver=TIGHT)
     table = _fast.normal_table("kelvin-voigt")
-    assert table.compression.shape[2] == 2 * _fast.COMPRESSION_NODES[2]
+    assert table.compression.shape[3] == 2 * _fast.COMPRESSION_NODES[2]
     closed = fast.closed_form
     slides = closed & ~fast.rolling
     rolls = closed & fast.rolling

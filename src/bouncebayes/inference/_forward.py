@@ -88,22 +88,10 @@ class Forward:
             params[:, K.P_ETA] = self._column(theta, "eta")
         if "spin" in self.columns:
             y0[:, K.S_W] = self._column(theta, "spin")
-        if "youngs_modulus" in self.columns:  # k ~ E; d*, t_Hertz ~ E^(-2/5)
-            ratio = self._column(theta, "youngs_modulus") / self.modulus0
-            params[:, K.P_K] *= ratio
-            params[:, K.P_DSCALE] *= ratio ** -0.4
+        if "youngs_modulus" in self.columns:  # k is proportional to E
+            params[:, K.P_K] *= self._column(theta, "youngs_modulus") / self.modulus0
 
     def _prepared(self, theta, params, y0, status) -> _Prepared:
-        """The full prepared arrays (step sizes, scales), for the ODE fallback only."""
-        t = self.template
-        n = theta.shape[0]
-        scale = np.tile(t.scale, (n, 1))
-        h_max, t_max = np.tile(t.h_max, n), np.tile(t.t_max, n)
-        if "youngs_modulus" in self.columns:
-            shrink = (self._column(theta, "youngs_modulus") / self.modulus0) ** -0.4
-            scale[:, K.S_X] *= shrink
-            scale[:, K.S_D] *= shrink
-            h_max, t_max = h_max * shrink, t_max * shrink
-        return replace(t, params=params, y0=y0, scale=scale, h_max=h_max, t_max=t_max,
-                       status=status, shape=(status.size,), gravity_x=params[:, K.P_GX],
-                       gravity_y=params[:, K.P_GY])
+        """The prepared elements, for the ODE fallback (it derives its own scales)."""
+        return replace(self.template, params=params, y0=y0, status=status,
+                       shape=(status.size,))

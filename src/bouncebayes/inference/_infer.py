@@ -168,9 +168,11 @@ def write_outputs(result: InferenceResult, out: str | Path) -> dict[str, Path]:
     """Write ``posterior.nc`` (NetCDF via ArviZ/h5netcdf) and ``summary.json`` atomically;
     with the grid sampler also ``grid.npz`` (the normalised joint density)."""
     out = Path(out)
+    summary = result.summary()  # everything is built before the first file is replaced
+    idata = inference_data(result)
     paths = {"posterior": write_with(out / "posterior.nc",
-                                     lambda tmp: inference_data(result).to_netcdf(str(tmp))),
-             "summary": write_json(out / "summary.json", result.summary())}
+                                     lambda tmp: idata.to_netcdf(str(tmp))),
+             "summary": write_json(out / "summary.json", summary)}
     grid = result.draws.info.get("grid")
     if grid is not None:
         def save(tmp):

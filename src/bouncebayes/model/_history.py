@@ -94,9 +94,9 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
     tc = float(bounce.contact_time)
     t_contact = np.linspace(0.0, tc, n_contact)
     hist = np.full((n_contact, K.N_HISTORY), np.nan)
-    K.solve_contact(prep.params[0], prep.y0[0], prep.scale[0], prep.h_max[0], prep.t_max[0],
-                    solver.rtol, solver.atol, solver.max_steps, t_contact, hist,
-                    np.empty(K.N_RESULTS))
+    params, y0, scale, h_max, t_max = prep.ode_arrays()
+    K.solve_contact(params[0], y0[0], scale[0], h_max[0], t_max[0], solver.rtol, solver.atol,
+                    solver.max_steps, t_contact, hist, np.empty(K.N_RESULTS))
     span = tc if flight_time is None else check_scalar("flight_time", flight_time, unit="s",
                                                        low=0.0, low_open=True)
     gx, gy, r = float(prep.gravity_x[0]), float(prep.gravity_y[0]), ball.radius

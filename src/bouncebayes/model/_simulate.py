@@ -117,16 +117,40 @@ class Bounces:
 
 @dataclass(frozen=True)
 class _Prepared:
+    """Validated inputs as the compiled kernels' arrays (one row per element)."""
+
     params: np.ndarray
     y0: np.ndarray
-    scale: np.ndarray
-    h_max: np.ndarray
-    t_max: np.ndarray
     status: np.ndarray
     shape: tuple[int, ...]
-    gravity_x: np.ndarray
-    gravity_y: np.ndarray
-    radius: float
+    max_contact_time_factor: float
+
+    @property
+    def gravity_x(self) -> np.ndarray:
+        return self.params[:, K.P_GX]
+
+    @property
+    def gravity_y(self) -> np.ndarray:
+        return self.params[:, K.P_GY]
+
+    def ode_arrays(self, rows=slice(None)):
+        """What only the ODE solver needs, for ``rows``: (params with the overlap scale
+        filled in, y0, tolerance scales, largest step, time limit). The scales: the Hertz
+        overlap d* = (m V^2/k)^(2/5) for positions, the incident speed for velocities,
+        speed / radius for spin; the step and time limits: fractions and multiples of the
+        elastic Hertz contact time."""
+        params = self.params[rows].copy()
+        y0 = self.y0[rows]
+        r, m, k = params[:, K.P_R], params[:, K.P_M], params[:, K.P_K]
+        v_normal = -y0[:, K.S_V]
+        speed = np.hypot(y0[:, K.S_U], v_normal)
+        d_scale = (m * v_normal**2 / k) ** 0.4
+        e_star = k / (4.0 / 3.0 * np.sqrt(r))
+        t_hertz = HERTZ_CONTACT_TIME_CONSTANT * (m**2 / (r * e_star**2 * v_normal)) ** 0.2
+        params[:, K.P_DSCALE] = d_scale
+        scale = np.column_stack([d_scale, d_scale, speed, speed, speed / r])
+        return params, np.ascontiguousarray(y0), scale, t_hertz / 10.0, \
+            self.max_contact_time_factor * t_hertz
 
 
 # name, unit, low, high, low_open, high_open
@@ -167,46 +191,50 @@ def _prepare(ball: Ball, values: dict, normal_law: str, solver: SolverConfig,
     shape = bad.shape
     a = {k: np.ascontiguousarray(v, dtype=float).ravel() for k, v in arrays.items()}
     n = bad.size
-    r, m = ball.radius, ball.mass
-    e_star = a["youngs_modulus"] / (1.0 - ball.poisson_ratio**2)
-    k = 4.0 / 3.0 * math.sqrt(r) * e_star
+    r = ball.radius
     theta = np.radians(a["angle"])
     incl = np.radians(a["inclination"])
     speed = a["speed"]
-    v_normal = speed * np.cos(theta)
-    d_scale = (m * v_normal**2 / k) ** 0.4
-    t_hertz = HERTZ_CONTACT_TIME_CONSTANT * (m**2 / (r * e_star**2 * v_normal)) ** 0.2
     params = np.empty((n, K.N_PARAMS))
     params[:, K.P_R] = r
-    params[:, K.P_M] = m
-    params[:, K.P_K] = k
+    params[:, K.P_M] = ball.mass
+    params[:, K.P_K] = (4.0 / 3.0 * math.sqrt(r) / (1.0 - ball.poisson_ratio**2)
+                        * a["youngs_modulus"])
     params[:, K.P_I] = ball.moment_of_inertia
     params[:, K.P_MU] = a["mu"]
     params[:, K.P_ETA] = a["eta"]
     params[:, K.P_GX] = a["gravity"] * np.sin(incl)
     params[:, K.P_GY] = a["gravity"] * np.cos(incl)
     params[:, K.P_LAW] = _LAW_CODES[normal_law]
-    params[:, K.P_DSCALE] = d_scale
+    params[:, K.P_DSCALE] = np.nan  # the ODE's overlap scale: see _Prepared.ode_arrays
     y0 = np.zeros((n, K.N_STATE))
     y0[:, K.S_U] = speed * np.sin(theta)
-    y0[:, K.S_V] = -v_normal
+    y0[:, K.S_V] = -speed * np.cos(theta)
     y0[:, K.S_W] = a["spin"]
-    scale = np.column_stack([d_scale, d_scale, speed, speed, speed / r])
     status = np.where(bad.ravel(), K.ST_INVALID, K.ST_OK).astype(np.int8)
-    return _Prepared(params, y0, scale, t_hertz / 10.0,
-                     solver.max_contact_time_factor * t_hertz, status, shape,
-                     params[:, K.P_GX], params[:, K.P_GY], r)
+    return _Prepared(params, y0, status, shape, solver.max_contact_time_factor)
 
 
 def solve_prepared(prep: _Prepared, solver: SolverConfig,
                    mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Run the compiled ODE solver on prepared elements (those in ``mask``, if given)."""
+    """Run the compiled ODE solver on prepared elements (those in ``mask``, if given; the
+    other rows of the results are NaN)."""
     status = prep.status.copy()
-    if mask is not None:
-        status[~mask] = K.ST_INVALID  # skipped; the caller keeps its own results there
     res = np.full((status.size, K.N_RESULTS), np.nan)
-    K.solve_batch(prep.params, prep.y0, prep.scale, prep.h_max, prep.t_max, solver.rtol,
-                  solver.atol, solver.max_steps, status, res)
+    rows = np.flatnonzero(status == K.ST_OK if mask is None else mask & (status == K.ST_OK))
+    if rows.size:
+        res[rows], status[rows] = solve_rows(prep, solver, rows)
+    return res, status
+
+
+def solve_rows(prep: _Prepared, solver: SolverConfig,
+               rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The ODE solver on the given rows only: (results, status) of those rows."""
+    params, y0, scale, h_max, t_max = prep.ode_arrays(rows)
+    status = prep.status[rows].copy()
+    res = np.full((rows.size, K.N_RESULTS), np.nan)
+    K.solve_batch(params, y0, scale, h_max, t_max, solver.rtol, solver.atol, solver.max_steps,
+                  status, res)
     return res, status
 
 
@@ -216,17 +244,14 @@ def _solve_auto(prep: _Prepared, normal_law: str,
     from ._fast import fast_prepared
 
     res, status, fallback = fast_prepared(prep, normal_law)
-    need = (fallback != 0) & (status == K.ST_OK)
-    if need.any():
-        res_ode, status_ode = solve_prepared(prep, solver, mask=need)
-        res[need] = res_ode[need]
-        status[need] = status_ode[need]
+    rows = np.flatnonzero((fallback != 0) & (status == K.ST_OK))
+    if rows.size:
+        res[rows], status[rows] = solve_rows(prep, solver, rows)
     return res, status
 
 
 def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bounces:
-    ok = status == K.ST_OK
-    res = np.where(ok[:, None], res, np.nan)
+    ok = status == K.ST_OK  # rows that are not OK hold NaN already (both solver paths)
     u, vn, w = res[:, K.R_U], res[:, K.R_V], res[:, K.R_W]
 
     def shaped(x):
