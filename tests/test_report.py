@@ -124,3 +124,32 @@ def test_run_on_a_missing_experiment(tmp_path, demo, capsys):
                  str(tmp_path / "o")]) == 2
     assert "cannot read the experiment file" in capsys.readouterr().err
     assert not (tmp_path / "o" / "report.html").exists()
+
+
+def test_run_goes_from_a_folder_of_videos_to_a_report(tmp_path, capsys):
+    """Issue 7: `bouncebayes run` accepts a folder of videos (synthetic 1000 fps renders of
+    known bounces, tests/video_helpers.py) and goes from footage to report."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from video_helpers import Bounce, Scene, render, write_png_sequence, write_video
+
+    videos = tmp_path / "videos"
+    for i, ratio in enumerate((0.60, 0.62, 0.58)):
+        scene = Scene(seed=i, noise_sigma=2.0, inclination=0.0)
+        frames = render(scene, Bounce(normal_ratio=ratio))
+        if i == 0:
+            write_png_sequence(frames, videos / "bounce_a")  # an image-sequence folder
+        else:
+            write_video(frames, videos / f"bounce_{'bc'[i - 1]}.avi", scene.fps)
+    experiment = Path(__file__).resolve().parents[1] / "examples" / "paper.toml"
+    out = tmp_path / "out"
+    code = main(["run", str(experiment), str(videos), "--out", str(out), "--quiet",
+                 "--sampler", "grid", "--fps", "1000"])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    assert sorted(p.name for p in (out / "trajectories").glob("*.csv")) == [
+        "bounce_a.csv", "bounce_b.csv", "bounce_c.csv"]
+    assert len(list((out / "tracking").glob("*.overlay.png"))) == 3
+    assert (out / "report.html").is_file()
+    assert "3 of 3 trajectory files gave kinematics" in printed.err

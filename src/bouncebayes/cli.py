@@ -329,6 +329,10 @@ def add_run_subcommand(sub) -> None:
     p.add_argument("data", type=Path, metavar="DATA",
                    help="trial table, trajectory folder or video folder")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    p.add_argument("--fps", type=float, default=None, metavar="HZ",
+                   help="frame rate of the videos in frames/s (needed for folders of image "
+                        "frames; overrides the rate stored in a video file, which high-speed "
+                        "cameras often set to the playback rate)")
     _add_run_options(p)
     p.set_defaults(run=run_run)
 
@@ -341,7 +345,7 @@ def _run(experiment, data, args, truth=None) -> int:
 
     outcome = run(experiment, data, args.out, likelihood=args.likelihood, sampler=args.sampler,
                   seed=args.seed, progress=not args.quiet and sys.stderr.isatty(), log=log,
-                  truth=truth)
+                  truth=truth, fps=getattr(args, "fps", None))
     print(outcome.table)
     print(outcome.verdict)
     total = sum(outcome.stage_seconds.values())

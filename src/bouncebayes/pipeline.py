@@ -49,7 +49,8 @@ def data_kind(data: Path) -> str:
     raise InputFileError(data, "holds neither trajectory files (*.csv, *.txt) nor videos")
 
 
-def _trials_from_data(data: Path, kind: str, experiment, out: Path, log) -> Path:
+def _trials_from_data(data: Path, kind: str, experiment, out: Path, log,
+                      fps: float | None = None) -> Path:
     """The trial table of the run folder, made from the data as needed."""
     from .kinematics import kinematics_from_folder, refer_to_contact, write_trial_table
 
@@ -59,7 +60,7 @@ def _trials_from_data(data: Path, kind: str, experiment, out: Path, log) -> Path
         return table
     folder = data
     if kind == "videos":
-        folder = _track_videos(data, experiment, out, log)
+        folder = _track_videos(data, experiment, out, log, fps)
     s = experiment.trajectories
     found = kinematics_from_folder(folder, rotation_deg=s["rotation_deg"],
                                    length_unit=s["length_unit"], drag=s["drag"])
@@ -70,7 +71,9 @@ def _trials_from_data(data: Path, kind: str, experiment, out: Path, log) -> Path
     return table
 
 
-def _track_videos(data: Path, experiment, out: Path, log) -> Path:
+def _track_videos(data: Path, experiment, out: Path, log, fps: float | None) -> Path:
+    """Track every video (or image-sequence folder) of ``data`` into ``out/trajectories``,
+    with an overlay image per video in ``out/tracking``; unusable videos are listed."""
     from .tracking import IMAGE_SUFFIXES, VIDEO_SUFFIXES, overlay_image, track_video, \
         write_trajectory_csv
 
@@ -78,22 +81,33 @@ def _track_videos(data: Path, experiment, out: Path, log) -> Path:
                                                   VIDEO_SUFFIXES) or (p.is_dir() and any(
         f.suffix.lower() in IMAGE_SUFFIXES for f in p.iterdir())))
     folder = out / "trajectories"
+    tracked_any = False
     for path in inputs:
         try:
-            tracked = track_video(path, ball_diameter=experiment.ball.diameter)
+            tracked = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter)
         except InputFileError as exc:
             log(f"  skipped: {exc}")
             continue
-        write_trajectory_csv(folder / f"{path.stem}.csv", tracked.trajectory)
-        overlay_image(tracked, out / "tracking" / f"{path.stem}.overlay.png")
+        name = tracked.source.name
+        write_trajectory_csv(folder / f"{name}.csv", *tracked.trajectory)
+        overlay_image(tracked.source.frames, tracked.track,
+                      out / "tracking" / f"{name}.overlay.png",
+                      calibration=tracked.calibration, surface=tracked.surface, title=name)
+        tracked_any = True
+    if not tracked_any:
+        raise InputFileError(data, "no video could be tracked (each is listed above with the "
+                                   "reason)")
+    log(f"tracked {len(list(folder.glob('*.csv')))} of {len(inputs)} videos")
     return folder
 
 
 def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         likelihood: str = "gaussian", sampler: str = "mh", seed: int = 0,
         config: SamplerConfig | None = None, progress: bool = False,
-        log: Callable[[str], None] = print, truth: Path | None = None) -> RunOutcome:
-    """Run every stage; each writes its results atomically into ``out``."""
+        log: Callable[[str], None] = print, truth: Path | None = None,
+        fps: float | None = None) -> RunOutcome:
+    """Run every stage; each writes its results atomically into ``out``. ``fps``: the frame
+    rate of videos (required for image-sequence folders; overrides a video file's)."""
     out, data = Path(out), Path(data)
     experiment_path = Path(experiment_path)
     times = {}
@@ -105,7 +119,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     start = stage(1, "data and kinematics")
     experiment = load_experiment(experiment_path)
     kind = data_kind(data)
-    table = _trials_from_data(data, kind, experiment, out, log)
+    table = _trials_from_data(data, kind, experiment, out, log, fps)
     write_text(out / EXPERIMENT_FILE, experiment_path.read_text(encoding="utf-8"))
     if truth is not None:
         shutil.copyfile(truth, out / "truth.json")
