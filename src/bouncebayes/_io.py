@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +39,7 @@ def write_text(path: str | os.PathLike, text: str) -> Path:
 
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
     """Write ``obj`` as indented JSON atomically."""
-    return write_text(path, json.dumps(obj, indent=2, ensure_ascii=False) + "\n")
+    return write_text(path, json_text(obj))
 
 
 def write_with(path: str | os.PathLike, writer: Callable[[Path], None]) -> Path:
@@ -47,3 +47,17 @@ def write_with(path: str | os.PathLike, writer: Callable[[Path], None]) -> Path:
     with atomic_path(path) as tmp:
         writer(tmp)
     return Path(path)
+
+
+def write_all(writers: Mapping[str | os.PathLike, Callable[[Path], None]]) -> list[Path]:
+    """Write several files as one: every ``writer(tmp)`` runs first, and the files are moved
+    into place only if all succeeded (a failure replaces none of them)."""
+    with ExitStack() as stack:
+        for path, writer in writers.items():
+            writer(stack.enter_context(atomic_path(path)))
+    return [Path(p) for p in writers]
+
+
+def json_text(obj: Any) -> str:
+    """The JSON this package writes: indented, UTF-8 text kept readable."""
+    return json.dumps(obj, indent=2, ensure_ascii=False) + "\n"

@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from ._io import write_with  # noqa: E402
 from .model import BounceHistory  # noqa: E402
@@ -27,7 +28,11 @@ def save_figure(fig: Figure, path: str | os.PathLike, *, close: bool = True) -> 
     if suffix not in FIGURE_FORMATS:
         raise ValueError(f"figure file {str(path)!r} must end in one of "
                          f"{', '.join(FIGURE_FORMATS)}; got {suffix or 'no suffix'!r}")
-    out = write_with(path, lambda tmp: fig.savefig(tmp, format=suffix[1:], bbox_inches="tight"))
+    # mplot3d's projection can overflow in float arithmetic for a very narrow posterior far
+    # from the origin (axes 1e-4 wide at 5.0): harmless to the image, so not a warning
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = write_with(path, lambda tmp: fig.savefig(tmp, format=suffix[1:],
+                                                       bbox_inches="tight"))
     if close:
         plt.close(fig)
     return out
@@ -163,11 +168,16 @@ def plot_joint_posterior(result, grid_file=None, truth: dict | None = None) -> F
         ax3 = fig.add_subplot(1, 2, 1, projection="3d")
         mx, my = np.meshgrid(gx, gy, indexing="ij")
         step = max(1, gx.size // 80)
-        ax3.plot_surface(mx[::step, ::step], my[::step, ::step], dens[::step, ::step],
-                         cmap="viridis", linewidth=0, antialiased=True)
+        # relative to the maximum: a narrow posterior has densities of 1e8 and more, which
+        # overflow the 3-D projection; the contour panel carries the absolute scale
+        ax3.plot_surface(mx[::step, ::step], my[::step, ::step],
+                         dens[::step, ::step] / dens.max(), cmap="viridis", linewidth=0,
+                         antialiased=True)
         ax3.set_xlabel(_label(result, names[0]))
         ax3.set_ylabel(_label(result, names[1]))
-        ax3.set_zlabel("posterior density")
+        ax3.set_zlabel("density / maximum")
+        for axis in (ax3.xaxis, ax3.yaxis):
+            axis.set_major_locator(MaxNLocator(4))
         ax3.set_title("a) surface")
         ax = fig.add_subplot(1, 2, 2)
         cs = ax.contourf(mx, my, dens, levels=12, cmap="viridis")
@@ -179,6 +189,7 @@ def plot_joint_posterior(result, grid_file=None, truth: dict | None = None) -> F
         ax.set_xlabel(_label(result, names[0]))
         ax.set_ylabel(_label(result, names[1]))
         ax.set_title("b) contours")
+        ax.xaxis.set_major_locator(MaxNLocator(5))
         fig.suptitle(f"Joint posterior ({source}; likelihood {result.likelihood})")
         fig.tight_layout()
     return fig

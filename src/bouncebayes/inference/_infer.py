@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import write_json, write_with
+from .._io import json_text, write_all
 from .._validate import check_choice
 from .._version import __version__
 from ..data import Experiment, Trials
@@ -118,7 +118,12 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str = "gaussian
                                        regimes["share_rolling"])
                    for i, (n, u, p) in enumerate(zip(post.names, post.units, post.priors,
                                                      strict=True)))
-    warns = warnings_for(list(params), draws.samples, post.priors, sampler)
+    warns = warnings_for(list(params), draws.samples, post.priors, sampler, draws.info)
+    if likelihood == "gaussian":
+        warns += [f"{c} was measured but has no standard errors ({c}_se): the gaussian "
+                  f"likelihood treats it as exact, which makes the posterior too narrow if it "
+                  f"is not; add the column" for c in sorted(trials.measured)
+                  if np.isnan(trials.se[c]).any()]
     return InferenceResult(experiment, trials, likelihood, sampler, int(seed), config, post,
                            draws, params, regimes, tuple(warns), like.describe(),
                            time.perf_counter() - start)
@@ -165,24 +170,25 @@ def inference_data(result: InferenceResult):
 
 
 def write_outputs(result: InferenceResult, out: str | Path) -> dict[str, Path]:
-    """Write ``posterior.nc`` (NetCDF via ArviZ/h5netcdf) and ``summary.json`` atomically;
-    with the grid sampler also ``grid.npz`` (the normalised joint density)."""
+    """Write ``posterior.nc`` (NetCDF via ArviZ/h5netcdf) and ``summary.json``, with the grid
+    sampler also ``grid.npz`` (normalised joint density and marginals), as one: if any of them
+    cannot be written, none of the earlier files is replaced."""
     out = Path(out)
-    summary = result.summary()  # everything is built before the first file is replaced
+    summary = json_text(result.summary())
     idata = inference_data(result)
-    paths = {"posterior": write_with(out / "posterior.nc",
-                                     lambda tmp: idata.to_netcdf(str(tmp))),
-             "summary": write_json(out / "summary.json", summary)}
+    writers = {out / "posterior.nc": lambda tmp: idata.to_netcdf(str(tmp)),
+               out / "summary.json": lambda tmp: tmp.write_text(summary, encoding="utf-8")}
     grid = result.draws.info.get("grid")
     if grid is not None:
         def save(tmp):
             with open(tmp, "wb") as fh:
-                np.savez_compressed(fh, density=grid["density"],
-                                    names=np.array(result.names),
-                                    **{f"centres_{i}": np.array(c)
-                                       for i, c in enumerate(grid["centres"])})
-        paths["grid"] = write_with(out / "grid.npz", save)
-    return paths
+                np.savez_compressed(
+                    fh, density=grid["density"], names=np.array(result.names),
+                    **{f"centres_{i}": np.array(c) for i, c in enumerate(grid["centres"])},
+                    **{f"marginal_{i}": np.array(m) for i, m in enumerate(grid["marginals"])})
+        writers[out / "grid.npz"] = save
+    paths = write_all(writers)
+    return dict(zip(("posterior", "summary", "grid"), paths))
 
 
 def format_table(result: InferenceResult) -> str:

@@ -71,6 +71,12 @@ def _covariance(post: LogPosterior, mode: np.ndarray, width: np.ndarray) -> np.n
     fallback = np.diag((width / 10.0) ** 2)
     if not np.all(np.isfinite(hess)):
         return fallback
+    flat = ~(-np.diag(hess) > 0)  # a direction the data do not constrain (e.g. mu, rolling)
+    if flat.any():  # give it a quarter of the box, keep the curvature of the others
+        idx = np.flatnonzero(flat)
+        hess[flat, :] = 0.0
+        hess[:, flat] = 0.0
+        hess[idx, idx] = -(4.0 / width[idx]) ** 2
     try:
         cov = np.linalg.inv(-hess)
         np.linalg.cholesky(cov)
@@ -159,20 +165,79 @@ def sample_ensemble(post: LogPosterior, config: SamplerConfig, rng: np.random.Ge
     chain = sampler.get_chain(discard=config.ensemble_burn_in, thin=config.ensemble_thin)
     lps = sampler.get_log_prob(discard=config.ensemble_burn_in, thin=config.ensemble_thin)
     samples = np.swapaxes(chain, 0, 1)  # (walkers, draws, d)
-    return Draws(samples, {"lp": lps.T},
-                 {"acceptance_rate": sampler.acceptance_fraction.tolist(), "walkers": w,
-                  "mode": mode.tolist(), "steps": config.ensemble_burn_in + steps})
+    # walkers are not independent chains: judge convergence by the autocorrelation time
+    # (Foreman-Mackey et al. 2013: run for at least 50 of them), not by R-hat across walkers
+    tau = emcee.autocorr.integrated_time(chain, quiet=True) * config.ensemble_thin
+    with np.errstate(invalid="ignore"):
+        return Draws(samples, {"lp": lps.T},
+                     {"acceptance_rate": sampler.acceptance_fraction.tolist(), "walkers": w,
+                      "mode": mode.tolist(), "steps": config.ensemble_burn_in + steps,
+                      "autocorrelation_steps": tau.tolist(),
+                      "kept_steps_per_autocorrelation": (steps / tau).tolist()})
 
 
 def sample_grid(post: LogPosterior, config: SamplerConfig, rng: np.random.Generator,
                 progress: bool = False) -> Draws:
-    """Exact quadrature on a regular grid of cell centres over the prior box: the normalised
-    joint density, its marginals and the evidence; draws are resampled from the cells (with a
-    uniform jitter inside each) for propagation."""
+    """Exact quadrature on a regular grid of cell centres: the normalised joint density, its
+    marginals and the evidence; draws are resampled from the cells (with a uniform jitter
+    inside each) for propagation. The grid covers the prior box, zoomed onto the region where
+    the posterior is within e^-30 of its maximum when that is much smaller (so that a narrow
+    posterior is resolved; the mass left outside is below 1e-10)."""
     n = config.points(post.dim)
     box = post.box(1e-6)
+    for _ in range(ZOOM_PASSES):
+        zoomed = _zoom(post, box, min(n, COARSE_POINTS[post.dim]))
+        if np.all(zoomed[:, 1] - zoomed[:, 0] > 0.5 * (box[:, 1] - box[:, 0])):
+            break
+        box = zoomed
     edges = [np.linspace(lo, hi, n + 1) for lo, hi in box]
     centres = [0.5 * (e[1:] + e[:-1]) for e in edges]
+    lp = _grid_log_posterior(post, centres, progress)
+    if not np.isfinite(lp).any():
+        raise ValueError("the posterior is zero everywhere on the grid")
+    steps = np.array([e[1] - e[0] for e in edges])
+    volume = float(np.prod(steps))
+    log_evidence = float(logsumexp(lp) + math.log(volume))
+    weights = np.exp(lp - logsumexp(lp))
+    mesh_shape = (n,) * post.dim
+    density = (weights / volume).reshape(mesh_shape)
+    marginals = [density.sum(axis=tuple(j for j in range(post.dim) if j != i))
+                 * volume / steps[i] for i in range(post.dim)]
+    mean = [float(np.sum(m * c) * steps[i]) for i, (m, c) in enumerate(zip(marginals, centres,
+                                                                            strict=True))]
+    sd = [math.sqrt(max(float(np.sum(m * (c - mu) ** 2) * steps[i]), 0.0))
+          for i, (m, c, mu) in enumerate(zip(marginals, centres, mean, strict=True))]
+    cells = rng.choice(weights.size, size=config.draws, p=weights)
+    mesh = np.stack(np.meshgrid(*centres, indexing="ij"), axis=-1).reshape(-1, post.dim)
+    draws = mesh[cells] + (rng.uniform(size=(config.draws, post.dim)) - 0.5) * steps
+    return Draws(draws[None], {"lp": lp[cells][None]},
+                 {"log_evidence": log_evidence, "grid_points": n, "box": box.tolist(),
+                  "exact_mean": mean, "exact_sd": sd,
+                  "cells_per_sd": [s_ / h for s_, h in zip(sd, steps, strict=True)],
+                  "grid": {"centres": [c.tolist() for c in centres], "density": density,
+                           "marginals": marginals}})
+
+
+ZOOM_PASSES = 4
+COARSE_POINTS = {1: 512, 2: 96, 3: 32}
+ZOOM_DROP = 30.0  # log-density below the maximum that the zoomed box may leave out
+
+
+def _zoom(post: LogPosterior, box: np.ndarray, n: int) -> np.ndarray:
+    """The part of ``box`` where a coarse grid finds the log posterior within ZOOM_DROP of its
+    maximum, padded by two coarse cells on each side."""
+    edges = [np.linspace(lo, hi, n + 1) for lo, hi in box]
+    centres = [0.5 * (e[1:] + e[:-1]) for e in edges]
+    lp = _grid_log_posterior(post, centres, False).reshape((n,) * post.dim)
+    if not np.isfinite(lp).any():
+        return box
+    keep = np.argwhere(lp >= lp.max() - ZOOM_DROP)
+    lo = np.maximum(keep.min(axis=0) - 2, 0)
+    hi = np.minimum(keep.max(axis=0) + 3, n)
+    return np.array([[e[a], e[b]] for e, a, b in zip(edges, lo, hi, strict=True)])
+
+
+def _grid_log_posterior(post: LogPosterior, centres, progress: bool) -> np.ndarray:
     mesh = np.stack(np.meshgrid(*centres, indexing="ij"), axis=-1).reshape(-1, post.dim)
     lp = _structured_grid(post, centres, mesh)
     if lp is None:
@@ -183,18 +248,7 @@ def sample_grid(post: LogPosterior, config: SamplerConfig, rng: np.random.Genera
             lp[s:s + chunk] = post(mesh[s:s + chunk])
             bar.update(min(chunk, mesh.shape[0] - s))
         bar.close()
-    if not np.isfinite(lp).any():
-        raise ValueError("the posterior is zero everywhere on the grid")
-    volume = float(np.prod([e[1] - e[0] for e in edges]))
-    log_evidence = float(logsumexp(lp) + math.log(volume))
-    weights = np.exp(lp - logsumexp(lp))
-    cells = rng.choice(mesh.shape[0], size=config.draws, p=weights)
-    steps = np.array([e[1] - e[0] for e in edges])
-    draws = mesh[cells] + (rng.uniform(size=(config.draws, post.dim)) - 0.5) * steps
-    density = (weights / volume).reshape((n,) * post.dim)
-    return Draws(draws[None], {"lp": lp[cells][None]},
-                 {"log_evidence": log_evidence, "grid_points": n,
-                  "grid": {"centres": [c.tolist() for c in centres], "density": density}})
+    return lp
 
 
 def _structured_grid(post: LogPosterior, centres, mesh):

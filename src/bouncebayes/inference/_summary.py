@@ -131,13 +131,20 @@ def summarize_parameter(name, unit, prior, x, diag, rolling_share=None) -> Param
 
 
 def warnings_for(summaries: list[ParameterSummary], samples: np.ndarray, priors,
-                 sampler: str) -> list[str]:
+                 sampler: str, info: dict | None = None) -> list[str]:
     """Plain-language warnings: chains disagreeing, too few effective draws, several modes,
-    draws piled against a prior bound, parameters the data do not identify."""
+    draws piled against a prior bound, parameters the data do not identify, a grid too coarse
+    for the posterior."""
     out = []
+    info = info or {}
     flat = samples.reshape(-1, samples.shape[-1])
     for i, s in enumerate(summaries):
-        if s.r_hat is not None and s.r_hat > RHAT_LIMIT:
+        if sampler == "ensemble":
+            ratio = info.get("kept_steps_per_autocorrelation", [np.inf] * len(summaries))[i]
+            if not ratio >= 50:
+                out.append(f"{s.name}: the ensemble ran for only {ratio:.0f} autocorrelation "
+                           f"times (< 50); run longer (--draws)")
+        elif s.r_hat is not None and s.r_hat > RHAT_LIMIT:
             out.append(f"{s.name}: the chains disagree (R-hat {s.r_hat:.3f} > {RHAT_LIMIT}); "
                        f"run longer (--draws, --burn-in) or check for several modes")
         if sampler != "grid" and s.ess_bulk is not None and min(
@@ -149,6 +156,9 @@ def warnings_for(summaries: list[ParameterSummary], samples: np.ndarray, priors,
             out.append(f"{s.name}: the posterior has {len(s.modes)} modes (at {where}"
                        f"{' ' + s.unit if s.unit else ''}); a mean and a single interval "
                        f"do not describe it")
+        if sampler == "grid" and info.get("cells_per_sd", [np.inf] * len(summaries))[i] < 3:
+            out.append(f"{s.name}: the posterior sd spans only "
+                       f"{info['cells_per_sd'][i]:.1f} grid cells; raise --grid-points")
         out += _pile_warning(s, flat[:, i], priors[i])
         if not s.identifiable:
             out.append(f"{s.name} is not identified: {s.why_not_identified}")

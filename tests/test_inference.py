@@ -1,0 +1,581 @@
+"""Bayesian calibration (``bouncebayes.inference``): recovery, determinism, honesty, outputs.
+
+Where the expected values come from:
+
+- the truth of synthetic campaigns (``bouncebayes.data.synthesize`` with the ``[contact]`` values
+  of the experiment: the paper's mu = 0.16, eta = 1.35 kg/s at 3 m/s and 60 deg, and a second
+  point mu = 0.10, eta = 2.5 kg/s at 45 deg), and the realised noise of the campaign
+  (``truth["per_bounce"]`` against the measured table);
+- the exact grid posterior (quadrature of the normalised density) as the reference for the
+  Monte Carlo samplers;
+- the rolling threshold of mu, found by bisection on ``bouncebayes.simulate``;
+- the kernel density estimate's own moments (sample variance + bandwidth^2) for the
+  push-forward of the data-consistent posterior (Butler, Jakeman & Wildey 2018: the push-forward
+  of the updated density is the observed density);
+- ``1/sqrt(N)`` narrowing of a measurement-model posterior;
+- SHA-256 of the input file computed here with ``hashlib``.
+
+Runs are kept short (grid quadrature wherever the sampler does not matter, reduced draws
+elsewhere); module-scoped fixtures share them between tests.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import tomllib
+
+import numpy as np
+import pytest
+from scipy.special import logsumexp
+
+import bouncebayes as bb
+import bouncebayes.inference._infer as infer_module
+from bouncebayes.cli import main
+from bouncebayes.data import demo_campaign, load_trials, make_trials, parse_experiment, synthesize
+from bouncebayes.inference import LogPosterior, SamplerConfig, format_table, infer, write_outputs
+from bouncebayes.inference._forward import Forward
+from bouncebayes.inference._grid_kernel import gaussian_grid
+from bouncebayes.inference._likelihood import make_likelihood
+from bouncebayes.inference._summary import (diagnostics, import_arviz, marginal_modes,
+                                            summarize_parameter, warnings_for)
+
+DEMO = demo_campaign()
+PAPER_TRUTH = {"mu": 0.16, "eta": 1.35}
+SECOND_TRUTH = {"mu": 0.10, "eta": 2.5}
+
+
+def experiment(**changes):
+    """The demo (paper) experiment with ``section__key=value`` changes."""
+    doc = tomllib.loads(DEMO.experiment.read_text(encoding="utf-8"))
+    for path, value in changes.items():
+        section, key = path.split("__")
+        doc[section][key] = value
+    return parse_experiment(doc)
+
+
+def campaign(exp, seed: int, n: int = 55):
+    c = synthesize(exp, seed=seed, n=n)
+    assert c.truth["share_rolling"] in (0.0, 1.0)  # the tests below pick clean regimes
+    return c
+
+
+def covers(summary, value: float) -> bool:
+    return summary.ci90[0] <= value <= summary.ci90[1]
+
+
+def by_name(result, name):
+    return result.parameters[result.names.index(name)]
+
+
+def grid_moments(result):
+    """Exact mean and sd of each parameter from the normalised grid density (no Monte Carlo)."""
+    grid = result.draws.info["grid"]
+    density = grid["density"]
+    centres = [np.asarray(c) for c in grid["centres"]]
+    cell = float(np.prod([c[1] - c[0] for c in centres]))
+    out = {}
+    for i, name in enumerate(result.names):
+        axes = tuple(k for k in range(density.ndim) if k != i)
+        marginal = density.sum(axis=axes) * cell  # probabilities of the cells along axis i
+        mean = float(np.sum(marginal * centres[i]))
+        out[name] = (mean, float(np.sqrt(np.sum(marginal * (centres[i] - mean) ** 2))))
+    return out
+
+
+# --------------------------------------------------------------------------- shared runs
+
+@pytest.fixture(scope="module")
+def paper():
+    """A fresh 55-bounce campaign of the paper's setup (not the demo table) and its experiment."""
+    exp = experiment()
+    return exp, campaign(exp, seed=20161)
+
+
+@pytest.fixture(scope="module")
+def paper_grid(paper):
+    exp, c = paper
+    return infer(exp, c.trials, sampler="grid", seed=1, config=SamplerConfig(draws=4000))
+
+
+# --------------------------------------------------------------------------- recovery
+
+@pytest.mark.parametrize("truth, angle, seed", [(PAPER_TRUTH, 60.0, 20161),
+                                                (SECOND_TRUTH, 45.0, 4502)])
+def test_gaussian_interval_covers_the_truth_in_the_sliding_regime(truth, angle, seed):
+    exp = experiment(contact__mu=truth["mu"], contact__eta=truth["eta"],
+                     incidence__angle_deg=angle)
+    c = campaign(exp, seed)
+    assert c.truth["share_rolling"] == 0.0
+    result = infer(exp, c.trials, sampler="grid", seed=2, config=SamplerConfig(draws=4000))
+    for name, value in truth.items():
+        p = by_name(result, name)
+        assert covers(p, value), (name, p.ci90, value)
+        assert p.identifiable
+    assert result.regimes["share_rolling"] == 0.0
+    assert result.warnings == ()
+
+
+def test_gaussian_posterior_narrows_like_one_over_sqrt_n():
+    # measurement model (MODEL.md §5): 4x the bounces halve the posterior sd. The sd of a
+    # 55-bounce posterior varies with the campaign by ~ 1/sqrt(2 * 55) ~ 10 %; 25 % allowed.
+    exp = experiment()
+    sd = {}
+    for n in (40, 160):
+        r = infer(exp, campaign(exp, seed=7, n=n).trials, sampler="grid",
+                  config=SamplerConfig(draws=500, grid_points=384))
+        sd[n] = grid_moments(r)
+    for name in ("mu", "eta"):
+        assert sd[40][name][1] / sd[160][name][1] == pytest.approx(2.0, rel=0.25)
+
+
+@pytest.fixture(scope="module")
+def spread_results():
+    """kde and consistent posteriors (grid) and the gaussian one, on the demo table."""
+    exp = experiment()
+    trials = load_trials(DEMO.trials, exp)
+    config = SamplerConfig(draws=4000, grid_points=256)
+    return {lk: infer(exp, trials, likelihood=lk, sampler="grid", seed=3, config=config)
+            for lk in ("kde", "consistent", "gaussian")}
+
+
+@pytest.mark.parametrize("likelihood", ["kde", "consistent"])
+def test_spread_likelihoods_contain_the_truth_and_stay_wide(spread_results, likelihood):
+    # kde and consistent describe bounce-to-bounce scatter read as scatter of the parameters:
+    # the truth (mu = 0.16, eta = 1.35 kg/s for every bounce of the demo) must lie inside, and
+    # the interval is far wider than the measurement model's (which shrinks like 1/sqrt(N)).
+    result, gauss = spread_results[likelihood], spread_results["gaussian"]
+    for name, value in PAPER_TRUTH.items():
+        p, g = by_name(result, name), by_name(gauss, name)
+        assert covers(p, value), (name, p.ci90)
+        assert (p.ci90[1] - p.ci90[0]) > 5 * (g.ci90[1] - g.ci90[0])
+    assert result.summary()["likelihood_meaning"] == bb.inference.MEANINGS[likelihood]
+
+
+def test_consistent_push_forward_reproduces_the_observed_density(spread_results):
+    # Butler et al. (2018): the push-forward of the data-consistent posterior through the model
+    # (nominal incidence) is the observed density, here a KDE whose variance per variable is
+    # the sample variance plus the squared bandwidth.
+    result = spread_results["consistent"]
+    exp = experiment()
+    trials = load_trials(DEMO.trials, exp)
+    density = result.likelihood_info["observed_density"]
+    inc = exp.incidence
+    fwd = Forward(exp, result.names, speed=np.array([inc.speed]), angle=np.array([inc.angle]))
+    r = fwd(result.draws.samples.reshape(-1, 2))
+    for pushed, observed, h in ((r.speed[:, 0], trials.rebound_speed,
+                                 density["bandwidth_speed_m_s"]),
+                                (r.angle[:, 0], trials.rebound_angle,
+                                 density["bandwidth_angle_deg"])):
+        kde_sd = math.sqrt(np.var(observed, ddof=1) + h**2)
+        # the means agree to ~0.07 sd here: the prior's push-forward density is itself a KDE
+        # of 4000 prior draws, whose smoothing bias shifts the ratio; 0.2 sd allowed
+        assert np.mean(pushed) == pytest.approx(np.mean(observed), abs=0.2 * kde_sd)
+        assert np.std(pushed) == pytest.approx(kde_sd, rel=0.1)
+
+
+def test_mh_ensemble_and_grid_means_agree(paper, paper_grid):
+    # reference: the grid quadrature (exact up to the grid spacing, no Monte Carlo error).
+    # Monte Carlo error of a mean with ESS >= 1000 is <= 0.03 sd, so 0.1 sd is > 3 sigma.
+    exp, c = paper
+    exact = grid_moments(paper_grid)
+    mh = infer(exp, c.trials, sampler="mh", seed=4, config=SamplerConfig(draws=6000))
+    ens = infer(exp, c.trials, sampler="ensemble", seed=4,
+                config=SamplerConfig(draws=20000, walkers=32, ensemble_burn_in=200,
+                                     ensemble_thin=1))
+    for result in (mh, ens, paper_grid):
+        for name, (mean, sd) in exact.items():
+            x = result.samples(name)
+            assert abs(np.mean(x) - mean) < 0.1 * sd, (result.sampler, name)
+            assert np.std(x) == pytest.approx(sd, rel=0.1), (result.sampler, name)
+        assert by_name(result, "mu").mean == pytest.approx(np.mean(result.samples("mu")))
+
+
+# --------------------------------------------------------------------------- determinism
+
+@pytest.fixture(scope="module")
+def small_table():
+    """The first 12 bounces of the demo: enough for a posterior, cheap to evaluate."""
+    exp = experiment()
+    t = load_trials(DEMO.trials, exp)
+    keep = slice(0, 12)
+    return exp, make_trials(exp, rebound_speed=t.rebound_speed[keep],
+                            rebound_angle=t.rebound_angle[keep],
+                            incidence_speed=t.incidence_speed[keep],
+                            incidence_angle=t.incidence_angle[keep],
+                            se={k: v[keep] for k, v in t.se.items()
+                                if np.all(np.isfinite(v))})
+
+
+SMALL = {"mh": SamplerConfig(draws=400, burn_in=50),
+         "ensemble": SamplerConfig(draws=400, walkers=8, ensemble_burn_in=50),
+         "grid": SamplerConfig(draws=400, grid_points=64)}
+
+
+def _numbers(result) -> dict:
+    out = result.summary()
+    del out["seconds"]
+    return out
+
+
+@pytest.mark.parametrize("sampler", ["mh", "ensemble", "grid"])
+def test_same_seed_same_draws_other_seed_other_draws(small_table, sampler):
+    exp, trials = small_table
+    a, b, other = (infer(exp, trials, sampler=sampler, seed=s, config=SMALL[sampler])
+                   for s in (7, 7, 8))
+    assert np.array_equal(a.draws.samples, b.draws.samples)
+    assert json.dumps(_numbers(a)) == json.dumps(_numbers(b))
+    assert not np.array_equal(a.draws.samples, other.draws.samples)
+    assert _numbers(a)["parameters"] != _numbers(other)["parameters"]
+
+
+# --------------------------------------------------------------------------- identifiability
+
+def _rolling_threshold(angle: float, eta: float) -> float:
+    """Smallest mu for which the nominal bounce leaves rolling (bisection on the model)."""
+    lo, hi = 0.0, 0.5
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if bool(bb.simulate(mu=mid, eta=eta, speed=3.0, angle=angle).rolling) \
+            else (mid, hi)
+    return hi
+
+
+def test_rolling_campaign_bounds_mu_from_below_and_still_identifies_eta():
+    exp = experiment(contact__mu=0.4, incidence__angle_deg=20.0)
+    c = campaign(exp, seed=31)
+    assert c.truth["share_rolling"] == 1.0
+    result = infer(exp, c.trials, sampler="grid", seed=5, config=SamplerConfig(draws=4000))
+    mu, eta = by_name(result, "mu"), by_name(result, "eta")
+    assert not mu.identifiable
+    assert mu.bound["side"] == "lower" and mu.bound["level"] == 0.95
+    assert mu.paper_form() == f"mu > {mu.bound['value']:.2f} at 95 %"
+    # above the threshold the rebound does not depend on mu: the posterior is ~flat on
+    # [threshold, 0.5], so its 5 % quantile lies near threshold + 0.05 (0.5 - threshold)
+    threshold = _rolling_threshold(20.0, 1.35)
+    assert threshold <= mu.bound["value"] <= threshold + 0.1 * (0.5 - threshold)
+    assert result.regimes["share_rolling"] >= 0.95
+    assert any(w.startswith("mu is not identified") for w in result.warnings)
+    assert eta.identifiable and covers(eta, 1.35)
+    assert "mu > " in format_table(result)
+
+
+# --------------------------------------------------------------------------- the grid
+
+def test_grid_density_is_normalised_and_the_evidence_converges():
+    # 6 bounces: a broad posterior, so the midpoint rule converges visibly with the spacing
+    exp = experiment()
+    trials = campaign(exp, seed=61, n=6).trials
+    runs = {n: infer(exp, trials, sampler="grid", config=SamplerConfig(draws=200, grid_points=n))
+            for n in (128, 256)}
+    for n, r in runs.items():
+        grid = r.draws.info["grid"]
+        cell = np.prod([c[1] - c[0] for c in grid["centres"]])
+        assert grid["density"].shape == (n, n)
+        assert grid["density"].sum() * cell == pytest.approx(1.0, abs=1e-12)
+        assert math.isfinite(r.draws.info["log_evidence"])
+    assert runs[128].draws.info["log_evidence"] == pytest.approx(
+        runs[256].draws.info["log_evidence"], abs=1e-3)
+
+
+@pytest.mark.parametrize("order, eta_high", [(("mu", "eta"), 5.0), (("eta", "mu"), 5.0),
+                                             (("mu", "eta"), 30.0)])
+def test_structured_grid_equals_the_generic_posterior(order, eta_high, small_table):
+    # the (mu, eta) kernel must give LogPosterior.__call__ on the same mesh: sliding and rolling
+    # cells alike, for either parameter order in the experiment file, and (eta up to 30 kg/s)
+    # with cells outside the kernel's normal-impact table handed over to the generic path
+    exp, trials = small_table
+    doc = tomllib.loads(DEMO.experiment.read_text(encoding="utf-8"))
+    doc["parameters"]["eta"]["high"] = eta_high
+    doc["parameters"] = {k: doc["parameters"][k] for k in order}
+    exp = parse_experiment(doc)
+    result = infer(exp, trials, sampler="grid", config=SamplerConfig(draws=200, grid_points=24))
+    assert result.names == order
+    post = result.posterior
+    centres = [np.asarray(c) for c in result.draws.info["grid"]["centres"]]
+    mesh = np.stack(np.meshgrid(*centres, indexing="ij"), axis=-1).reshape(-1, 2)
+    generic = post(mesh)
+    density = np.exp(generic - logsumexp(generic)) / np.prod([c[1] - c[0] for c in centres])
+    np.testing.assert_allclose(result.draws.info["grid"]["density"].ravel(), density,
+                               rtol=1e-9, atol=1e-12)
+    # the kernel on the whole prior box (the sampler's grid is zoomed onto the posterior)
+    box = post.box()
+    full = [np.linspace(lo, hi, 26)[1:-1] for lo, hi in box]
+    mu = full[order.index("mu")]
+    eta = full[order.index("eta")]
+    ll, bad = gaussian_grid(post.likelihood, mu, eta)
+    assert bad.any() == (eta_high > 5.0)
+    pairs = np.stack(np.meshgrid(mu, eta, indexing="ij"), axis=-1).reshape(-1, 2)
+    theta = pairs if order == ("mu", "eta") else pairs[:, ::-1]
+    rolling = post.likelihood.forward(theta).rolling.all(axis=1)
+    assert rolling.any() and not rolling.all()  # both tangential outcomes are on this box
+    reference = post.likelihood(theta).reshape(ll.shape)
+    np.testing.assert_allclose(ll[~bad], reference[~bad], rtol=1e-12, atol=1e-10)
+
+
+# --------------------------------------------------------------------------- warnings
+
+def test_prior_bound_cutting_into_the_posterior_is_reported():
+    # the demo's posterior of mu is 0.159 +- 0.0015; an upper bound at 0.157 cuts it
+    exp = experiment(parameters__mu={"prior": "uniform", "low": 0.0, "high": 0.157})
+    result = infer(exp, load_trials(DEMO.trials, exp), sampler="grid",
+                   config=SamplerConfig(draws=4000))
+    piles = [w for w in result.warnings if "piles against it" in w]
+    assert len(piles) == 1
+    assert piles[0].startswith("mu: ") and "upper bound (0.157)" in piles[0]
+    # the reference run with the paper's prior has no such warning
+    wide = infer(experiment(), load_trials(DEMO.trials, experiment()), sampler="grid",
+                 config=SamplerConfig(draws=4000))
+    assert not any("piles against it" in w for w in wide.warnings)
+
+
+def test_a_tiny_mcmc_run_is_flagged(small_table):
+    exp, trials = small_table
+    result = infer(exp, trials, sampler="mh", seed=9,
+                   config=SamplerConfig(draws=200, burn_in=0, thin=1))
+    text = "\n".join(result.warnings)
+    assert "effective draws (< 400)" in text  # 200 draws cannot hold 400 effective ones
+    assert any("the chains disagree (R-hat" in w for w in result.warnings)
+    for w in result.warnings:
+        if "R-hat" in w:
+            name = w.split(":")[0]
+            assert by_name(result, name).r_hat > 1.01
+
+
+def test_marginal_modes_finds_two_separated_peaks():
+    rng = np.random.default_rng(2018)
+    bimodal = np.concatenate([rng.normal(0.1, 0.01, 3000), rng.normal(0.3, 0.01, 7000)])
+    modes = marginal_modes(bimodal, 0.0, 0.5)
+    assert len(modes) == 2
+    assert modes[0] == pytest.approx(0.3, abs=0.01)  # the higher peak first
+    assert modes[1] == pytest.approx(0.1, abs=0.01)
+    assert len(marginal_modes(rng.normal(0.2, 0.02, 10000), 0.0, 0.5)) == 1
+
+
+def test_a_bimodal_marginal_is_a_warning():
+    rng = np.random.default_rng(5)
+    x = np.concatenate([rng.normal(0.1, 0.01, 2000), rng.normal(0.3, 0.01, 2000)])
+    samples = x.reshape(4, 1000, 1)  # four chains, each half in one mode: R-hat is fine
+    prior = bb.data.Uniform(0.0, 0.5)
+    s = summarize_parameter("mu", "", prior, x, diagnostics(samples, ("mu",))["mu"])
+    text = warnings_for([s], samples, [prior], "grid")
+    assert any("the posterior has 2 modes" in w for w in text)
+
+
+# --------------------------------------------------------------------------- inferred noise
+
+def test_noise_levels_are_inferred_without_standard_errors():
+    # exact incidence (no incidence noise), rebound noise 0.02 m/s and 0.5 deg, no *_se columns
+    exp = experiment(synth__incidence_speed_noise_m_s=0.0, synth__incidence_angle_noise_deg=0.0)
+    c = campaign(exp, seed=11)
+    t = c.trials
+    trials = make_trials(exp, rebound_speed=t.rebound_speed, rebound_angle=t.rebound_angle,
+                         incidence_speed=t.incidence_speed, incidence_angle=t.incidence_angle)
+    result = infer(exp, trials, sampler="mh", seed=6, config=SamplerConfig(draws=3000))
+    assert result.names == ("mu", "eta", "sigma_speed", "sigma_angle")
+    assert result.likelihood_info["noise"] == "inferred"
+    noise = c.truth["measurement_noise"]
+    per = c.truth["per_bounce"]
+    for name, column, generating in (("sigma_speed", "rebound_speed", noise["rebound_speed"]),
+                                     ("sigma_angle", "rebound_angle", noise["rebound_angle"])):
+        realised = float(np.sqrt(np.mean((t.column(column) - np.array(per[column])) ** 2)))
+        p = by_name(result, name)
+        assert covers(p, realised), (name, p.ci90, realised)  # what these 55 draws hold
+        lo, hi = np.quantile(result.samples(name), [0.005, 0.995])
+        assert lo <= generating <= hi, (name, lo, hi)
+    for name, value in PAPER_TRUTH.items():
+        assert covers(by_name(result, name), value)
+
+
+# --------------------------------------------------------------------------- outputs
+
+@pytest.fixture(scope="module")
+def demo_grid():
+    exp = experiment()
+    trials = load_trials(DEMO.trials, exp)
+    return infer(exp, trials, sampler="grid", seed=12,
+                 config=SamplerConfig(draws=500, grid_points=128))
+
+
+def test_posterior_netcdf_holds_draws_data_and_provenance(tmp_path, demo_grid):
+    paths = write_outputs(demo_grid, tmp_path)
+    assert set(paths) == {"posterior", "summary", "grid"}
+    az = import_arviz()
+    idata = az.from_netcdf(str(tmp_path / "posterior.nc"))
+    assert {"posterior", "sample_stats", "observed_data"} <= set(idata.groups())
+    np.testing.assert_array_equal(idata.posterior["mu"].values, demo_grid.draws.samples[..., 0])
+    np.testing.assert_array_equal(idata.observed_data["rebound_speed"].values,
+                                  demo_grid.trials.rebound_speed)
+    assert "lp" in idata.sample_stats
+    attrs = idata.attrs
+    assert int(attrs["seed"]) == 12
+    assert attrs["likelihood"] == "gaussian" and attrs["sampler"] == "grid"
+    assert attrs["bouncebayes_version"] == bb.__version__
+    assert attrs["data_sha256"] == hashlib.sha256(DEMO.trials.read_bytes()).hexdigest()
+    with np.load(tmp_path / "grid.npz") as grid:
+        cell = (grid["centres_0"][1] - grid["centres_0"][0]) * (grid["centres_1"][1]
+                                                                - grid["centres_1"][0])
+        assert grid["density"].sum() * cell == pytest.approx(1.0, abs=1e-12)
+
+
+def test_summary_json_has_the_documented_shape(tmp_path, demo_grid):
+    write_outputs(demo_grid, tmp_path)
+    summary = json.loads((tmp_path / "summary.json").read_text(encoding="utf-8"))
+    assert {"parameters", "likelihood", "sampler", "seed", "regimes", "warnings", "data",
+            "bouncebayes_version"} <= set(summary)
+    assert list(summary["parameters"]) == ["mu", "eta"]
+    for name, p in summary["parameters"].items():
+        assert {"mean", "sd", "ci90", "r_hat", "ess_bulk", "identifiable"} <= set(p)
+        assert len(p["ci90"]) == 2 and p["ci90"][0] < p["mean"] < p["ci90"][1]
+        assert p["mean"] == pytest.approx(float(np.mean(demo_grid.samples(name))), rel=1e-12)
+    assert summary["likelihood"] == "gaussian" and summary["sampler"] == "grid"
+    assert summary["seed"] == 12
+    assert summary["data"]["sha256"] == hashlib.sha256(DEMO.trials.read_bytes()).hexdigest()
+
+
+def _digests(folder) -> dict:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in folder.iterdir()}
+
+
+def test_a_failed_posterior_write_leaves_the_earlier_outputs(tmp_path, demo_grid, monkeypatch):
+    write_outputs(demo_grid, tmp_path)
+    before = _digests(tmp_path)
+
+    def broken(result):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(infer_module, "inference_data", broken)
+    with pytest.raises(OSError, match="disk full"):
+        write_outputs(dataclasses.replace(demo_grid, seed=99), tmp_path)
+    assert _digests(tmp_path) == before  # no partial file, nothing replaced, no temporaries
+
+
+def test_a_failed_summary_write_leaves_the_earlier_outputs(tmp_path, demo_grid):
+    write_outputs(demo_grid, tmp_path)
+    before = _digests(tmp_path)
+    broken = dataclasses.replace(demo_grid, seed=99, likelihood_info={"x": object()})
+    with pytest.raises(TypeError, match="not JSON serializable"):
+        write_outputs(broken, tmp_path)
+    assert _digests(tmp_path) == before
+
+
+# --------------------------------------------------------------------------- the CLI
+
+def test_cli_infer_on_the_demo_matches_the_library(tmp_path, capsys):
+    argv = ["infer", str(DEMO.experiment), str(DEMO.trials), "--out", str(tmp_path),
+            "--sampler", "grid", "--grid-points", "128", "--draws", "500", "--seed", "12",
+            "--quiet"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "mu = " in out and "posterior.nc" in out
+    summary = json.loads((tmp_path / "summary.json").read_text(encoding="utf-8"))
+    exp = experiment()
+    lib = infer(exp, load_trials(DEMO.trials, exp), sampler="grid", seed=12,
+                config=SamplerConfig(draws=500, grid_points=128))
+    assert summary["parameters"]["mu"]["mean"] == by_name(lib, "mu").mean
+    assert summary["parameters"]["eta"]["ci90"] == list(by_name(lib, "eta").ci90)
+
+
+def test_cli_infer_mh_with_small_draws(tmp_path, capsys):
+    argv = ["infer", str(DEMO.experiment), str(DEMO.trials), "--out", str(tmp_path),
+            "--draws", "400", "--burn-in", "50", "--likelihood", "kde", "--seed", "3", "--quiet"]
+    assert main(argv) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text(encoding="utf-8"))
+    assert summary["sampler"] == "mh" and summary["likelihood"] == "kde"
+    assert summary["n_draws"] == 400
+    assert "likelihood kde, sampler mh, seed 3" in capsys.readouterr().out
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    return err[-1]
+
+
+def test_cli_unknown_likelihood_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["infer", str(DEMO.experiment), str(DEMO.trials), "--out", str(tmp_path),
+              "--likelihood", "poisson"])
+    assert exc.value.code == 2
+    line = _one_error_line(capsys)
+    assert line.startswith("bouncebayes infer: error: argument --likelihood: invalid choice")
+    assert "'poisson'" in line
+
+
+def test_cli_missing_trial_table_is_one_line(tmp_path, capsys):
+    missing = tmp_path / "nowhere.csv"
+    assert main(["infer", str(DEMO.experiment), str(missing), "--out",
+                 str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert err.startswith("bouncebayes infer: error: ") and str(missing) in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_experiment_without_parameters_is_one_line(tmp_path, capsys):
+    text = DEMO.experiment.read_text(encoding="utf-8")
+    start, end = text.index("[parameters.mu]"), text.index("[trajectories]")
+    path = tmp_path / "fixed.toml"
+    path.write_text(text[:start] + text[end:], encoding="utf-8")
+    assert main(["infer", str(path), str(DEMO.trials), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "no [parameters.NAME] table: nothing to infer" in err
+
+
+# --------------------------------------------------------------------------- error paths
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"sampler": "hmc"}, "`sampler` must be one of 'mh', 'ensemble', 'grid'; got 'hmc'"),
+    ({"likelihood": "poisson"},
+     "`likelihood` must be one of 'kde', 'gaussian', 'consistent'; got 'poisson'"),
+    ({"noise": "estimated"}, "`noise` must be one of 'auto', 'given', 'inferred'; got 'estimated'"),
+])
+def test_bad_names_are_rejected(small_table, kwargs, message):
+    exp, trials = small_table
+    with pytest.raises(ValueError, match=message.replace("[", r"\[")):
+        infer(exp, trials, **kwargs)
+
+
+def test_grid_with_four_parameters_is_rejected(small_table):
+    exp, trials = small_table
+    with pytest.raises(ValueError, match="the grid sampler handles 1 to 3 parameters; this "
+                                         "problem has 4: use `mh` or `ensemble`"):
+        infer(exp, trials, sampler="grid", noise="inferred")
+
+
+def test_given_noise_needs_standard_errors():
+    exp = experiment()
+    t = load_trials(DEMO.trials, exp)
+    bare = make_trials(exp, rebound_speed=t.rebound_speed, rebound_angle=t.rebound_angle)
+    with pytest.raises(ValueError, match="noise='given' needs positive standard errors in "
+                                         "rebound_speed_se and rebound_angle_se"):
+        infer(exp, bare, noise="given")
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("draws", 99, "`draws` must be an integer >= 100; got 99"),
+    ("chains", 0, "`chains` must be an integer >= 1; got 0"),
+    ("thin", 1.5, "`thin` must be an integer >= 1; got 1.5"),
+])
+def test_sampler_config_checks_itself(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        SamplerConfig(**{field: value})
+
+
+def test_likelihood_is_only_evaluated_inside_the_prior(small_table):
+    # LogPosterior: -inf outside the support without calling the likelihood there
+    exp, trials = small_table
+    like = make_likelihood("gaussian", exp, trials, ("mu", "eta"),
+                           rng=np.random.default_rng(0))
+    calls = []
+
+    def spy(theta):
+        calls.append(theta.copy())
+        return like(theta)
+
+    post = LogPosterior(("mu", "eta"), (exp.priors["mu"], exp.priors["eta"]), ("", "kg/s"), spy)
+    lp = post(np.array([[0.16, 1.35], [0.6, 1.35], [0.16, -1.0]]))
+    assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:]))
+    assert len(calls) == 1 and np.array_equal(calls[0], [[0.16, 1.35]])
