@@ -66,7 +66,7 @@ def test_both_regimes_and_the_friction_peak_before_the_force_peak_are_covered():
     fast = bb.simulate(**kw)
     ode = bb.simulate(**kw, method="ode", solver=TIGHT)
     table = _fast.normal_table("kelvin-voigt")
-    assert table.compression.shape[3] == 2 * _fast.COMPRESSION_NODES[2]
+    assert table.compression.shape[1] == 2 * _fast.COMPRESSION_NODES[2]
     closed = fast.closed_form
     slides = closed & ~fast.rolling
     rolls = closed & fast.rolling
@@ -119,8 +119,8 @@ def test_table_reproduces_tight_ode_solutions_of_the_scaled_problem():
         res = _fast._solve_unit(law, x**t.power, g)
         vals = np.empty(_fast.N_TABLE)
         for i in range(x.size):
-            _fast._contract(t.coef, x[i], g[i], t.x_max, t.gamma_max, np.empty(t.coef.shape[0]),
-                            np.empty(t.coef.shape[1]), vals)
+            _fast._contract(t.coef, x[i], g[i], t.x_max, t.gamma_max, np.empty(t.coef.shape[1]),
+                            np.empty(t.coef.shape[2]), vals)
             ref = {_fast.T_E: res[i, bb.model._kernel.R_V], _fast.T_TC: res[i, 0],
                    _fast.T_FN: res[i, bb.model._kernel.R_FN_PEAK]}
             for q, want in ref.items():

@@ -22,9 +22,9 @@ def _gaussian_grid(mu, eta, params, y0, coef, x_max, gamma_max, power, speed_obs
                    icov, log_norm, out, bad):
     n_mu, n_eta, n = mu.size, eta.size, params.shape[0]
     for j in prange(n_eta):
-        tx = np.empty(coef.shape[0])
-        tg = np.empty(coef.shape[1])
-        vals = np.empty(coef.shape[2])
+        tx = np.empty(coef.shape[1])
+        tg = np.empty(coef.shape[2])
+        vals = np.empty(coef.shape[0])
         p = np.empty(params.shape[1])
         for i in range(n_mu):
             out[i, j] = 0.0

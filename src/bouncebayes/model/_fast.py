@@ -63,8 +63,8 @@ class NormalTable:
     """Chebyshev coefficients of the scaled normal-impact outcomes of one law."""
 
     law: str
-    coef: np.ndarray  # (n_damping, n_gravity, N_TABLE)
-    compression: np.ndarray  # (piece, n_damping, n_gravity, 2 n_sigma): impulse Pi, force Phi
+    coef: np.ndarray  # (N_TABLE, n_damping, n_gravity)
+    compression: np.ndarray  # (piece, 2 n_sigma, n_damping, n_gravity): impulse Pi, force Phi
     x_max: float  # table variable x: zeta^(1/3) (Kelvin–Voigt) or chi (Hunt–Crossley)
     gamma_max: float
     power: float
@@ -93,7 +93,6 @@ def normal_table(law: str) -> NormalTable:
     f[T_TPK] = res[:, K.R_T_FN_PEAK]
     f[T_PPK] = res[:, K.R_V_FN_PEAK] + 1.0 + g.ravel() * res[:, K.R_T_FN_PEAK]
     coef = _interpolate(f.reshape(N_TABLE, nx, ng), (cx, cg))
-    coef = np.ascontiguousarray(coef.transpose(1, 2, 0))
     return NormalTable(law, coef, _compression_table(law, x_max, gamma_max, power), x_max,
                        gamma_max, power)
 
@@ -146,7 +145,7 @@ def _compression_table(law: str, x_max: float, gamma_max: float, power: float) -
             out[0, i, order] = hist[:, K.S_V] + 1.0 + gamma[i] * times  # impulse / (m V)
             out[1, i, order] = hist[:, K.H_FN]
         coef = _interpolate(out.reshape(2, nx, ng, ns), (cx, cg, cs))
-        pieces.append(coef.transpose(1, 2, 0, 3).reshape(nx, ng, 2 * ns))
+        pieces.append(coef.transpose(0, 3, 1, 2).reshape(2 * ns, nx, ng))
     return np.ascontiguousarray(np.stack(pieces))
 
 
@@ -161,7 +160,7 @@ def _interpolate(values: np.ndarray, nodes: tuple[np.ndarray, ...]) -> np.ndarra
     return np.ascontiguousarray(coef)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=True)
 def _chebyshev_basis(u, out):
     out[0] = 1.0
     if out.shape[0] > 1:
@@ -180,19 +179,22 @@ def _series(c, u):
     return u * b1 - b2 + c[0]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True)
 def _contract(coef, x, gamma, x_max, gamma_max, tx, tg, out, nq=-1):
-    """out[q] = sum_ij coef[i, j, q] T_i(x) T_j(gamma) for the first ``nq`` quantities (all if
-    -1): the table at one point (the innermost loop runs over contiguous memory)."""
+    """out[q] = sum_ij coef[q, i, j] T_i(x) T_j(gamma) for the first ``nq`` quantities (all if
+    -1): the table at one point. The gravity axis is innermost and contiguous, so the inner
+    sums vectorise (``fastmath`` lets them be reassociated)."""
     _chebyshev_basis(2.0 * x / x_max - 1.0, tx)
     _chebyshev_basis(2.0 * gamma / gamma_max - 1.0, tg)
-    nq = coef.shape[2] if nq < 0 else nq
-    out[:] = 0.0
-    for i in range(coef.shape[0]):
-        for j in range(coef.shape[1]):
-            w = tx[i] * tg[j]
-            for q in range(nq):
-                out[q] += w * coef[i, j, q]
+    nq = coef.shape[0] if nq < 0 else nq
+    for q in range(nq):
+        acc = 0.0
+        for i in range(coef.shape[1]):
+            row = 0.0
+            for j in range(coef.shape[2]):
+                row += coef[q, i, j] * tg[j]
+            acc += row * tx[i]
+        out[q] = acc
 
 
 @njit(cache=True)
@@ -203,27 +205,44 @@ def _force_at_impulse(comp, x, gamma, x_max, gamma_max, target, tx, tg, ab):
     piece = min(int(x / width), n_pieces - 1)
     # the local variable of the piece mapped like the global one: x' in [0, x_max]
     _contract(comp[piece], (x - piece * width) * n_pieces, gamma, x_max, gamma_max,
-              tx[:comp.shape[1]], tg[:comp.shape[2]], ab)
-    ns = comp.shape[3] // 2
+              tx[:comp.shape[2]], tg[:comp.shape[3]], ab)
+    ns = comp.shape[1] // 2
     a, b = ab[:ns], ab[ns:]
-    lo, hi = 0.0, 1.0  # sigma; the impulse grows monotonically along the compression
-    f_lo, f_hi = _series(a, -1.0) - target, _series(a, 1.0) - target
-    sigma = 0.5
-    for _ in range(100):
-        if f_hi == f_lo:
+    # sigma: the impulse grows monotonically along the compression, like sigma^2 to sigma^5
+    # near 0, where regula falsi creeps; so first bracket the root within a factor of 4
+    hi, f_hi = 1.0, _series(a, 1.0) - target
+    lo = 0.25
+    while lo > 1e-7:
+        f_lo = _series(a, 2.0 * lo - 1.0) - target
+        if f_lo <= 0.0:
+            break
+        hi, f_hi = lo, f_lo
+        lo *= 0.25
+    else:
+        lo, f_lo = 0.0, _series(a, -1.0) - target
+    sigma = 0.5 * (lo + hi)
+    side = 0
+    # Illinois regula falsi on the bracket, stopped on the bracket's width (1e-13 in sigma:
+    # far below the table's accuracy; a test on |f| could stall on rounding)
+    for _ in range(200):
+        if hi - lo <= 1e-13 or f_hi == f_lo:
             break
         sigma = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-        if not (lo < sigma < hi) or hi - lo < 1e-15:
+        if not (lo < sigma < hi):
             sigma = 0.5 * (lo + hi)
         f = _series(a, 2.0 * sigma - 1.0) - target
-        if abs(f) <= 1e-15 * max(target, 1.0):
+        if f == 0.0:
             break
         if f < 0.0:
             lo, f_lo = sigma, f
-            f_hi *= 0.5 if f_hi != 0.0 else 1.0
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
         else:
             hi, f_hi = sigma, f
-            f_lo *= 0.5 if f_lo != 0.0 else 1.0
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
     return _series(b, 2.0 * sigma - 1.0)
 
 
@@ -322,10 +341,10 @@ def fast_batch(params, y0, coef, comp, x_max, gamma_max, power, full, status, re
     """Closed-form bounces for every valid element; ``fallback`` marks those needing the ODE."""
     n = params.shape[0]
     for c in prange((n + CHUNK - 1) // CHUNK):
-        tx = np.empty(coef.shape[0])
-        tg = np.empty(coef.shape[1])
-        vals = np.empty(coef.shape[2])
-        ab = np.empty(comp.shape[3])  # work array of the compression series
+        tx = np.empty(coef.shape[1])
+        tg = np.empty(coef.shape[2])
+        vals = np.empty(coef.shape[0])
+        ab = np.empty(comp.shape[1])  # work array of the compression series
         for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             if status[i] == K.ST_OK:
                 fallback[i] = _fast_one(params[i], y0[i], coef, comp, x_max, gamma_max, power,
