@@ -54,15 +54,22 @@ class Forward:
         self.n_conditions = self.template.status.size
         self.modulus0 = float(nominal["youngs_modulus"])
         self.columns = {n: i for i, n in enumerate(self.names)}
+        self._tiled: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    def _tiles(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Fresh copies of the kernel arrays for ``n`` parameter rows (samplers call with the
+        same ``n`` every iteration, so the tiled templates are kept)."""
+        if n not in self._tiled:
+            t = self.template
+            self._tiled[n] = (np.tile(t.params, (n, 1)), np.tile(t.y0, (n, 1)),
+                              np.tile(t.status, n))
+        return tuple(a.copy() for a in self._tiled[n])
 
     def __call__(self, theta: np.ndarray) -> Rebounds:
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         n = theta.shape[0]
-        t = self.template
-        params = np.tile(t.params, (n, 1))
-        y0 = np.tile(t.y0, (n, 1))
+        params, y0, status = self._tiles(n)
         self._fill(theta, params, y0)
-        status = np.tile(t.status, n)
         res, status, fallback = fast_arrays(params, y0, status, self.experiment.normal_law,
                                             full=False)
         need = (fallback != 0) & (status == K.ST_OK)
