@@ -118,11 +118,12 @@ def _img(path: Path, alt: str) -> str:
     return f'<img src="data:image/png;base64,{data}" alt="{html.escape(alt)}">'
 
 
-def _table(rows: list[list[str]], header: list[str]) -> str:
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+def _table(rows: list[list[str]], header: list[str] | None = None) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header or ())
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
                    for r in rows)
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+    thead = f"<thead><tr>{head}</tr></thead>" if head else ""
+    return f"<table>{thead}<tbody>{body}</tbody></table>"
 
 
 def render_report(result: InferenceResult, prop_summary: dict, figures, folder: str | Path,
@@ -166,8 +167,7 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
                 ["nominal incidence", f"{e.incidence.speed:g} m/s at {e.incidence.angle:g} deg "
                                       f"from the normal, spin {e.incidence.spin:g} rad/s"],
                 ["normal force law", e.normal_law],
-                ["priors", "; ".join(f"{n}: {p.describe()}" for n, p in e.priors.items())]],
-               ["", ""]),
+                ["priors", "; ".join(f"{n}: {p.describe()}" for n, p in e.priors.items())]]),
         "<h2>The data</h2>",
         f"<p>{t.n} bounces from <code>{html.escape(Path(t.source).name)}</code>; rebound "
         f"speed {np.mean(t.rebound_speed):.4g} &plusmn; {np.std(t.rebound_speed, ddof=1):.2g} "
@@ -181,9 +181,9 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
         f"<p>{html.escape(match['verdict'])}</p>",
         _table(pred_rows, ["quantity (nominal incidence)", "unit", "mean", "sd",
                            "90 % interval"]),
-        f"<p>Contact time: {len(prop_summary['contact_time_modes_s'])} mode(s)"
-        + (" &mdash; the distribution is multimodal." if prop_summary[
-            "contact_time_multimodal"] else ".")
+        "<p>Contact time: "
+        + (f"the distribution is multimodal ({len(prop_summary['contact_time_modes_s'])} "
+           "modes)." if prop_summary["contact_time_multimodal"] else "one mode.")
         + f" Failed simulations: {prop_summary['n_failed']}.</p>",
         "<h2>Figures</h2>",
     ]
@@ -196,7 +196,7 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
             timespec="seconds")],
         ["seed", str(result.seed)], ["experiment file", f"{e.source} (sha256 {e.text_sha256})"],
         ["data file", f"{t.source} (sha256 {t.sha256})"],
-        ["sampler settings", json.dumps(result.config.__dict__)]], ["", ""]),
+        ["sampler settings", json.dumps(result.config.__dict__)]]),
         "<h3>Experiment file</h3>",
         f"<pre>{html.escape(Path(e.source).read_text(encoding='utf-8'))}</pre>"]
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>bouncebayes: "
