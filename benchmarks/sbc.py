@@ -126,7 +126,7 @@ def run_sbc(campaigns: int | None = None, *, seed: int | None = None, out: Path 
         "python": platform.python_version(), "numpy": np.__version__,
         "generated_at": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
-    for i, name in enumerate(NAMES):
+    for name in NAMES:
         ranks = np.array([r[name]["rank"] for r in rows])
         coverage = float(np.mean([r[name]["covered"] for r in rows]))
         test = rank_test(ranks, settings["draws"], settings["bins"])

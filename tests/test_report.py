@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bouncebayes.cli import main
-from bouncebayes.pipeline import data_kind, report_folder
+from bouncebayes.pipeline import data_kind
 
 FIGURES = ("data", "joint_posterior", "marginals", "trajectories", "predictive", "forces",
            "contact_time", "diagnostics")
@@ -33,7 +33,7 @@ def test_report_is_self_contained_and_complete(small_run):
     assert len(re.findall(r'<img src="data:image/png;base64,', page)) == len(FIGURES)
     assert not re.search(r'(src|href)="(?!data:)', page), "no external resources"
     summary = json.loads((small_run.folder / "summary.json").read_text())
-    for name, p in summary["parameters"].items():
+    for p in summary["parameters"].values():
         assert p["paper_form"] in page
     for text in ("Likelihood gaussian", "Sampler mh", "Provenance", "sha256", "true value",
                  "Diagnostics and warnings", "What the posterior predicts", "Figure 8."):

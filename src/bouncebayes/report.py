@@ -17,7 +17,7 @@ from ._version import __version__
 from .data import load_experiment, load_trials
 from .inference import InferenceResult, LogPosterior, SamplerConfig
 from .inference._infer import SAMPLER_MEANINGS
-from .inference._likelihood import MEANINGS, NOISE_UNITS, noise_priors
+from .inference._likelihood import MEANINGS, noise_priors
 from .inference._samplers import Draws
 from .inference._summary import ParameterSummary, import_arviz
 

@@ -10,8 +10,7 @@ from typing import Literal
 
 import numpy as np
 
-from .._validate import (as_float_array, broadcast, check_array, check_choice, check_scalar,
-                         in_range_mask)
+from .._validate import (as_float_array, broadcast, check_array, check_choice, in_range_mask)
 from . import _kernel as K
 from ._closed_form import HERTZ_CONTACT_TIME_CONSTANT
 from ._config import PAPER_BALL, STANDARD_GRAVITY, Ball, SolverConfig, check_normal_law
