@@ -1,0 +1,142 @@
+"""From pixels to the plane frame: image scale, the surface line, the rotation."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+
+from .._validate import check_scalar
+from ._track import Track
+
+
+@dataclass(frozen=True, kw_only=True)
+class Calibration:
+    """Image scale, metres per pixel; ``source`` says where it came from."""
+
+    metres_per_px: float
+    source: str
+
+    def __post_init__(self):
+        check_scalar("metres_per_px", self.metres_per_px, unit="m/px", low=0.0, low_open=True)
+
+    @classmethod
+    def from_reference(cls, p1: Sequence[float], p2: Sequence[float],
+                       length: float) -> Calibration:
+        """Two pixel points ``length`` metres apart (Tracker's calibration stick)."""
+        length = check_scalar("reference length", length, unit="m", low=0.0, low_open=True)
+        pixels = math.dist(_point("reference point 1", p1), _point("reference point 2", p2))
+        if pixels == 0.0:
+            raise ValueError(f"the two reference points must differ; got {tuple(p1)} twice")
+        return cls(metres_per_px=length / pixels, source="reference")
+
+    @classmethod
+    def from_ball_diameter(cls, diameter: float, radius_px: float) -> Calibration:
+        """The ball's known diameter (m) against its measured radius (px), e.g.
+        ``Track.ball_radius``."""
+        diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
+        radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
+        return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter")
+
+
+def _point(name: str, p) -> tuple[float, float]:
+    arr = np.asarray(p, dtype=float)
+    if arr.shape != (2,) or not np.isfinite(arr).all():
+        raise ValueError(f"`{name}` must be two finite pixel coordinates (x, y); got {p!r}")
+    return float(arr[0]), float(arr[1])
+
+
+@dataclass(frozen=True, kw_only=True)
+class Surface:
+    """The surface line in the image: a point and a unit direction (pixels, ``v`` down)."""
+
+    point: tuple[float, float]
+    direction: tuple[float, float]
+    source: str
+
+    @classmethod
+    def from_points(cls, p1: Sequence[float], p2: Sequence[float]) -> Surface:
+        """Two points on the surface line, pixel coordinates with the origin top-left."""
+        a, b = _point("surface point 1", p1), _point("surface point 2", p2)
+        length = math.dist(a, b)
+        if length == 0.0:
+            raise ValueError(f"the two surface points must differ; got {a} twice")
+        return cls(point=a, direction=((b[0] - a[0]) / length, (b[1] - a[1]) / length),
+                   source="points")
+
+    @property
+    def angle(self) -> float:
+        """Inclination in the image, degrees in (-90, 90], counter-clockwise from the +x axis
+        as seen on the screen (``v`` up)."""
+        deg = math.degrees(math.atan2(-self.direction[1], self.direction[0]))
+        return deg - 180.0 if deg > 90.0 else deg + 180.0 if deg <= -90.0 else deg
+
+
+def detect_surface(background: np.ndarray, *, min_length: float = 0.3) -> Surface | None:
+    """The longest straight edge of the background image, refined by a line fit to its edge
+    pixels; ``None`` if no straight edge spans ``min_length`` of the frame's width.
+
+    Limits: the surface must be the longest straight edge in view (ruler edges, table edges or
+    the plane's far border can be picked instead: check the overlay, or give the points).
+    """
+    img = np.clip(np.asarray(background, dtype=np.float32), 0, 255).astype(np.uint8)
+    smooth = cv2.GaussianBlur(img, (0, 0), 1.5)
+    grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    high = float(np.percentile(grad, 98))
+    edges = cv2.Canny(smooth, 0.5 * high, high)
+    h, w = img.shape
+    lines = cv2.HoughLinesP(edges, 1, np.pi / 720, threshold=int(0.15 * w),
+                            minLineLength=min_length * w, maxLineGap=6)
+    if lines is None:
+        return None
+    longest = max(lines.reshape(-1, 4), key=lambda s: math.dist(s[:2], s[2:]))
+    x1, y1, x2, y2 = (float(v) for v in longest)
+    direction = np.array([x2 - x1, y2 - y1]) / math.dist((x1, y1), (x2, y2))
+    vs, us = np.nonzero(edges)
+    dist = (us - x1) * direction[1] - (vs - y1) * direction[0]
+    near = np.abs(dist) <= 2.0
+    pts = np.column_stack([us[near], vs[near]]).astype(np.float32)
+    dx, dy, px, py = cv2.fitLine(pts, cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
+    return Surface(point=(float(px), float(py)), direction=(float(dx), float(dy)),
+                   source="detected")
+
+
+class PlaneTrajectory(NamedTuple):
+    """Found frames only: time (s, frame index / fps) and position (m) in the plane frame."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+
+
+def plane_axes(track: Track, surface: Surface) -> tuple[np.ndarray, np.ndarray]:
+    """Image unit vectors of ``x`` (along the surface, direction of travel) and ``y`` (outward
+    normal, towards the ball's side)."""
+    c = track.centre[track.found]
+    if len(c) == 0:
+        raise ValueError("the track has no found frames")
+    e = np.asarray(surface.direction, dtype=float)
+    n = np.array([e[1], -e[0]])
+    rel = c - np.asarray(surface.point)
+    if np.median(rel @ n) < 0:
+        n = -n
+    if (rel[-1] - rel[0]) @ e < 0:
+        e = -e
+    return e, n
+
+
+def to_plane_frame(track: Track, calibration: Calibration, surface: Surface,
+                   fps: float) -> PlaneTrajectory:
+    """Found centres in metres, ``x`` along the surface from the first found position, ``y``
+    the height of the ball centre above the surface line."""
+    fps = check_scalar("fps", fps, unit="frames/s", low=0.0, low_open=True)
+    e, n = plane_axes(track, surface)
+    k = np.flatnonzero(track.found)
+    rel = track.centre[k] - np.asarray(surface.point)
+    x, y = rel @ e, rel @ n
+    s = calibration.metres_per_px
+    return PlaneTrajectory(t=k / fps, x=(x - x[0]) * s, y=y * s)
