@@ -217,19 +217,12 @@ def add_kinematics_subcommand(sub) -> None:
 def run_kinematics(args: argparse.Namespace) -> int:
     from .data import load_experiment
     from .density import summarize
-    from .kinematics import kinematics_from_folder, refer_to_contact, write_trial_table
+    from .kinematics import trial_table_from_folder
 
     experiment = load_experiment(args.experiment)
-    settings = experiment.trajectories
-    found = kinematics_from_folder(args.folder, rotation_deg=settings["rotation_deg"],
-                                   length_unit=settings["length_unit"],
-                                   drag=settings["drag"], min_points=args.min_points,
-                                   contact_guard=args.contact_guard)
-    print(found.summary())
-    if not found.results:
-        raise UserError(f"no usable trajectory in {args.folder}; nothing written")
-    results = refer_to_contact(found.results, experiment)
-    write_trial_table(args.out, results)
+    found, results = trial_table_from_folder(args.folder, experiment, args.out,
+                                             min_points=args.min_points,
+                                             contact_guard=args.contact_guard)
     speed = [k.rebound_speed for k in results]
     angle = [k.rebound_angle for k in results]
     incidence = [k.incidence_speed for k in results]

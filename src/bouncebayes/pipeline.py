@@ -52,7 +52,7 @@ def data_kind(data: Path) -> str:
 def _trials_from_data(data: Path, kind: str, experiment, out: Path, log,
                       fps: float | None = None) -> Path:
     """The trial table of the run folder, made from the data as needed."""
-    from .kinematics import kinematics_from_folder, refer_to_contact, write_trial_table
+    from .kinematics import trial_table_from_folder
 
     table = out / TRIALS_FILE
     if kind == "table":
@@ -61,13 +61,7 @@ def _trials_from_data(data: Path, kind: str, experiment, out: Path, log,
     folder = data
     if kind == "videos":
         folder = _track_videos(data, experiment, out, log, fps)
-    s = experiment.trajectories
-    found = kinematics_from_folder(folder, rotation_deg=s["rotation_deg"],
-                                   length_unit=s["length_unit"], drag=s["drag"])
-    log(found.summary())
-    if not found.results:
-        raise InputFileError(folder, "no usable trajectory: nothing to infer from")
-    write_trial_table(table, refer_to_contact(found.results, experiment))
+    trial_table_from_folder(folder, experiment, table, log=log)
     return table
 
 

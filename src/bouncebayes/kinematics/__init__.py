@@ -24,6 +24,7 @@ from ._fit import fit_kinematics as fit_kinematics
 from ._folder import FolderKinematics as FolderKinematics
 from ._folder import kinematics_from_folder as kinematics_from_folder
 from ._folder import refer_to_contact as refer_to_contact
+from ._folder import trial_table_from_folder as trial_table_from_folder
 from ._folder import write_trial_table as write_trial_table
 from ._read import LENGTH_UNITS as LENGTH_UNITS
 from ._read import MIN_TRACKED_POINTS as MIN_TRACKED_POINTS

@@ -149,3 +149,26 @@ def refer_to_contact(results: Sequence[Kinematics], experiment) -> tuple[Kinemat
 def _velocity(speed: float, angle_deg: float, normal_sign: float) -> tuple[float, float]:
     a = math.radians(angle_deg)
     return speed * math.sin(a), normal_sign * speed * math.cos(a)
+
+
+def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os.PathLike,
+                            *, log=print, **fit_kwargs
+                            ) -> tuple[FolderKinematics, tuple[Kinematics, ...]]:
+    """The experiment's trial table from a folder of trajectories: every file fitted with the
+    experiment's ``[trajectories]`` settings (rotation, length unit, drag), the results referred
+    to the contact instants (:func:`refer_to_contact`) and written to ``out``; ``log`` gets the
+    summary of which files were used and why others were not. Returns the folder's fits and
+    the referred kinematics that were written.
+
+    Raises:
+        InputFileError: no file of the folder gave kinematics (nothing is written).
+    """
+    s = experiment.trajectories
+    found = kinematics_from_folder(folder, rotation_deg=s["rotation_deg"],
+                                   length_unit=s["length_unit"], drag=s["drag"], **fit_kwargs)
+    log(found.summary())
+    if not found.results:
+        raise InputFileError(folder, "no usable trajectory file: nothing written")
+    results = refer_to_contact(found.results, experiment)
+    write_trial_table(out, results)
+    return found, results
