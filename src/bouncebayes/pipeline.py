@@ -30,21 +30,26 @@ class RunOutcome:
     stage_seconds: dict
 
 
-def data_kind(data: Path) -> str:
-    """``"table"`` (a CSV file), ``"trajectories"`` or ``"videos"`` (a folder)."""
+def _video_inputs(folder: Path) -> list[Path]:
+    """The videos of a folder: video files, and sub-folders of image frames."""
     from .tracking import IMAGE_SUFFIXES, VIDEO_SUFFIXES
 
+    return sorted(p for p in folder.iterdir()
+                  if (p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES)
+                  or (p.is_dir() and any(f.suffix.lower() in IMAGE_SUFFIXES
+                                         for f in p.iterdir())))
+
+
+def data_kind(data: Path) -> str:
+    """``"table"`` (a CSV file), ``"trajectories"`` or ``"videos"`` (a folder)."""
     if data.is_file():
         return "table"
     if not data.is_dir():
         raise InputFileError(data, "no such file or folder (expected a trial table, or a folder "
                                    "of trajectory files or videos)")
-    files = [p for p in data.iterdir() if p.is_file()]
-    if any(p.suffix.lower() in VIDEO_SUFFIXES for p in files) or any(
-            d.is_dir() and any(f.suffix.lower() in IMAGE_SUFFIXES for f in d.iterdir())
-            for d in data.iterdir()):
+    if _video_inputs(data):
         return "videos"
-    if any(p.suffix.lower() in TRAJECTORY_SUFFIXES for p in files):
+    if any(p.is_file() and p.suffix.lower() in TRAJECTORY_SUFFIXES for p in data.iterdir()):
         return "trajectories"
     raise InputFileError(data, "holds neither trajectory files (*.csv, *.txt) nor videos")
 
@@ -68,12 +73,9 @@ def _trials_from_data(data: Path, kind: str, experiment, out: Path, log,
 def _track_videos(data: Path, experiment, out: Path, log, fps: float | None) -> Path:
     """Track every video (or image-sequence folder) of ``data`` into ``out/trajectories``,
     with an overlay image per video in ``out/tracking``; unusable videos are listed."""
-    from .tracking import IMAGE_SUFFIXES, VIDEO_SUFFIXES, overlay_image, track_video, \
-        write_trajectory_csv
+    from .tracking import overlay_image, track_video, write_trajectory_csv
 
-    inputs = sorted(p for p in data.iterdir() if (p.is_file() and p.suffix.lower() in
-                                                  VIDEO_SUFFIXES) or (p.is_dir() and any(
-        f.suffix.lower() in IMAGE_SUFFIXES for f in p.iterdir())))
+    inputs = _video_inputs(data)
     folder = out / "trajectories"
     tracked_any = False
     for path in inputs:

@@ -44,7 +44,8 @@ NOISE_PARAMETERS = ("sigma_speed", "sigma_angle")
 NOISE_UNITS = {"sigma_speed": "m/s", "sigma_angle": "deg"}
 
 
-def _nominal(trials: Trials | None, experiment: Experiment):
+def _nominal(experiment: Experiment):
+    """The experiment's nominal incidence as one condition (speed, angle, spin arrays)."""
     inc = experiment.incidence
     return np.array([inc.speed]), np.array([inc.angle]), np.array([inc.spin])
 
@@ -145,7 +146,7 @@ def make_likelihood(name: str, experiment: Experiment, trials: Trials, names: tu
                     density_kind: str = "auto", n_predicted: int = 4000):
     """Build the named likelihood for the inferred parameters ``names`` (model parameters)."""
     if name in ("kde", "consistent"):
-        speed, angle, spin = _nominal(trials, experiment)
+        speed, angle, spin = _nominal(experiment)
         forward = Forward(experiment, names, speed=speed, angle=angle, spin=spin)
         observed = rebound_density(trials.rebound_speed, trials.rebound_angle,
                                    kind=density_kind, bandwidth=bandwidth)
