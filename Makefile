@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install demo test test-slow bench clean
+.PHONY: install demo test test-slow bench lint clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,11 @@ test: $(STAMP)
 ## The slow statistical studies (simulation-based calibration etc.)
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow
+
+## Static checks: ruff (pyflakes, bugbear, pydocstyle) and mypy on src/
+lint: $(STAMP)
+	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/mypy
 
 ## Speed benchmarks (not part of the tests)
 bench: $(STAMP)
