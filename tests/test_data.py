@@ -229,7 +229,7 @@ def test_synth_is_reproducible_and_its_truth_is_the_model(tmp_path):
     e = with_contact(extra="[synth]\nmu_sd = 0.01\neta_sd = 0.1\n")
     a, b = synthesize(e, seed=7, n=6), synthesize(e, seed=7, n=6)
     np.testing.assert_array_equal(a.trials.rebound_speed, b.trials.rebound_speed)
-    assert all(np.array_equal(x, y) for x, y in zip(a.trajectories, b.trajectories))
+    assert all(np.array_equal(x, y) for x, y in zip(a.trajectories, b.trajectories, strict=True))
     assert not np.array_equal(a.trials.rebound_speed, synthesize(e, seed=8, n=6).trials
                               .rebound_speed)
     per = a.truth["per_bounce"]
@@ -245,7 +245,9 @@ def test_synth_is_reproducible_and_its_truth_is_the_model(tmp_path):
     assert truth["seed"] == 7 and truth["population"] == {"mu": 0.16, "eta": 1.35}
     files = sorted(paths["trajectories"].glob("*.csv"))
     assert [f.stem for f in files] == list(a.trials.labels)
-    assert files[0].read_text().startswith("t,x,y\n0,")
+    text = files[0].read_text()  # the one trajectory writer: provenance comment, header, rows
+    rows = [line for line in text.splitlines() if not line.startswith("#")]
+    assert text.startswith("# provenance: ") and rows[0] == "t,x,y" and rows[1].startswith("0.0,")
 
 
 def test_synth_trajectory_is_ballistic_with_the_recorded_incidence():
