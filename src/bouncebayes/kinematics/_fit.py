@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 from scipy.signal import find_peaks
 
 from ._config import FitConfig
-from ._flight import Flight, fit_drag, fit_quadratic
+from ._flight import Flight, fit_drag, fit_quadratic, sample_outlier_p
 from ._gates import apply_gates
 from ._observe import Observation, observe
 from ._read import Trajectory
@@ -23,6 +23,8 @@ from ._result import Kinematics, TrajectoryError
 # sign from - to +" that ignores the sign flips noise causes where |dy| per frame ~ noise.
 PROMINENCE_IN_NOISE_SD = 12.0
 _SPLIT_ITERATIONS = 5
+MAX_EXTRA_GUARD = 2  # samples next to an impact that may be left out beyond `contact_guard`
+SPLIT_POINTS = 10  # samples on each side whose parabolas place the impact for the split
 
 
 @dataclass(frozen=True)
@@ -187,6 +189,9 @@ def _split_one(traj: Trajectory, lows: np.ndarray, impacts: np.ndarray, k: int,
     nxt = impacts[k + 1] if k < n - 1 else np.inf
     before = _between(t, prev, impacts[k], guard if k > 0 else 0, guard)
     after = _between(t, impacts[k], nxt, guard, guard if k < n - 1 else 0)
+    if cfg.window is not None:
+        before = before[t[before] >= impacts[k] - cfg.window]
+        after = after[t[after] <= impacts[k] + cfg.window]
     for side, idx in (("before", before), ("after", after)):
         if idx.size < cfg.min_points:
             return TrajectoryError(name, f"too few points {side} the impact (got {idx.size}, "
@@ -195,7 +200,10 @@ def _split_one(traj: Trajectory, lows: np.ndarray, impacts: np.ndarray, k: int,
                                          "record more of the flight or lower `min_points`",
                                    reason="too few points")
     t_ref, pos = float(t[lows[k]]), traj.positions()
-    pre, post = (fit_quadratic(t[i] - t_ref, pos[i], i, None) for i in (before, after))
+    # parabolas through the samples next to the impact: a long flight bends under drag and
+    # lift, and its whole-flight parabola would put the impact in the wrong place
+    near = (before[-SPLIT_POINTS:], after[:SPLIT_POINTS])
+    pre, post = (fit_quadratic(t[i] - t_ref, pos[i], i, None) for i in near)
     tau = _crossing(pre.params.reshape(-1, 3)[1], post.params.reshape(-1, 3)[1])
     if tau is None or not t[0] <= t_ref + tau <= t[-1]:
         return TrajectoryError(name, "the fitted y(t) before and after the impact do not cross "
@@ -224,16 +232,33 @@ def _crossing(p: np.ndarray, q: np.ndarray) -> float | None:
 
 
 def _fit_flights(traj: Trajectory, split: _Split, cfg: FitConfig) -> tuple[Flight, Flight]:
-    t, pos = traj.t, traj.positions()
-    t_ref = float(t[split.low])
-    flights = []
-    for idx in (split.before, split.after):
-        tau = t[idx] - t_ref
-        flight = fit_quadratic(tau, pos[idx], idx, cfg.position_noise)
+    t_ref = float(traj.t[split.low])
+    return (_fit_side(traj, split.before, t_ref, cfg, True),
+            _fit_side(traj, split.after, t_ref, cfg, False))
+
+
+def _fit_side(traj: Trajectory, idx: np.ndarray, t_ref: float, cfg: FitConfig,
+              before: bool) -> Flight:
+    """One flight fitted with the configured model. A sample next to the impact that is off
+    the flight (p below ``cfg.p_min``: in contact, or blurred by the impact) is left out and
+    the flight refitted, up to ``MAX_EXTRA_GUARD`` samples, said in the flight's note."""
+    dropped = 0
+    while True:
+        tau, pos = traj.t[idx] - t_ref, traj.positions()[idx]
+        flight = fit_quadratic(tau, pos, idx, cfg.position_noise)
         if cfg.fit_drag:
-            flight = fit_drag(tau, pos[idx], flight, cfg.drag_k_max, cfg.position_noise)
-        flights.append(flight)
-    return flights[0], flights[1]
+            flight = fit_drag(tau, pos, flight, cfg.aero(), cfg.position_noise)
+        end = -1 if before else 0
+        if (dropped == MAX_EXTRA_GUARD or idx.size <= cfg.min_points
+                or sample_outlier_p(flight, end % idx.size) >= cfg.p_min):
+            break
+        idx = idx[:-1] if before else idx[1:]
+        dropped += 1
+    if dropped:
+        note = (f"{dropped} more sample(s) next to the impact left out (off the flight beyond "
+                f"p = {cfg.p_min:g}: in contact?)")
+        flight = replace(flight, note=note if flight.note is None else f"{flight.note}; {note}")
+    return flight
 
 
 def _fit_bounce(traj: Trajectory, split: _Split, cfg: FitConfig, allowance: float, k: int,

@@ -4,16 +4,17 @@ squares started from it), with the parameter covariance and the state at any tim
 Parameters, both at the flight's reference time ``tau = 0`` (the bounce's lowest sample):
 
 - ``"quadratic"``: per coordinate ``(r0, v0, a/2)``, coordinate after coordinate;
-- ``"drag"``: ``(r0 (d), v0 (d), a (d), k)`` for ``r'' = a - k |v| v``.
+- ``"drag"``: ``(r0 (d), v0 (d), a (d), k[, c])`` for ``r'' = a - k |v| v + |v| (c x v)``
+  (``c``, the lift: 1 component in 2-D, 3 in 3-D, or none).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.linalg import block_diag
+from scipy import special
 from scipy.optimize import least_squares
 
 from . import _drag
@@ -36,6 +37,9 @@ class Flight:
     dof: int
     drag_k: float | None = None
     drag_k_se: float | None = None
+    lift: np.ndarray | None = None  #: the lift vector c (1/m; 2-D: its normal component)
+    tau: np.ndarray | None = None  #: sample times from the reference time
+    design: np.ndarray | None = None  #: d(residuals, raveled)/d(fitted parameters)
     note: str | None = None  #: why a requested drag fit fell back to constant acceleration
 
     @property
@@ -69,12 +73,17 @@ class Flight:
             c = self.params.reshape(d, 3)
             r = c[:, 0] + c[:, 1] * tau + c[:, 2] * tau * tau
             v = c[:, 1] + 2 * c[:, 2] * tau
-            dr = block_diag(*[np.array([[1.0, tau, tau * tau]])] * d)
-            dv = block_diag(*[np.array([[0.0, 1.0, 2 * tau]])] * d)
+            dr, dv = np.zeros((d, 3 * d)), np.zeros((d, 3 * d))
+            for i in range(d):
+                dr[i, 3 * i:3 * i + 3] = (1.0, tau, tau * tau)
+                dv[i, 3 * i + 1:3 * i + 3] = (1.0, 2 * tau)
             return r, v, 2 * c[:, 2], dr, dv
         R, V, SR, SV = _drag.solve(self.params, d, np.array([tau]))
-        a, k = self.params[2 * d:3 * d], self.params[3 * d]
-        return R[0], V[0], a - k * np.linalg.norm(V[0]) * V[0], SR[0], SV[0]
+        a, k, c = self.params[2 * d:3 * d], self.params[3 * d], self.params[3 * d + 1:]
+        speed = float(np.linalg.norm(V[0]))
+        lift = np.zeros(d) if c.size == 0 else (np.cross(c, V[0]) if d == 3 else
+                                               c[0] * np.array([-V[0][1], V[0][0]]))
+        return R[0], V[0], a - k * speed * V[0] + speed * lift, SR[0], SV[0]
 
 
 def fit_quadratic(tau: np.ndarray, pos: np.ndarray, index: np.ndarray,
@@ -88,99 +97,287 @@ def fit_quadratic(tau: np.ndarray, pos: np.ndarray, index: np.ndarray,
     s2 = np.sum(resid * resid, axis=0) / dof if noise is None else np.full(pos.shape[1],
                                                                              noise**2)
     xtx_inv = np.linalg.inv(X.T @ X)
-    return Flight(index=index, model="quadratic", params=coef.T.ravel(),
-                  cov=block_diag(*(s * xtx_inv for s in s2)), residuals=resid,
-                  dof=pos.size - coef.size)
-
-
-def fit_drag(tau: np.ndarray, pos: np.ndarray, start: Flight, k_max: float,
-             noise: float | None) -> Flight:
-    """Quadratic-drag fit of one flight, or ``start`` (the drag-free fit) with the reason.
-
-    Starts from the drag-free fit linearised in ``k`` (one Gauss-Newton step from ``k = 0``,
-    a linear least-squares problem), keeps ``0 <= k <= k_max`` (SciPy's trust-region
-    reflective ``least_squares``, exact Jacobian), and falls back when the flight has fewer
-    than 8 samples, the fit fails, ``k`` ends on a bound, or the flight cannot tell ``k``
-    (its standard error exceeds ``k_max``).
-    """
     d = pos.shape[1]
+    design = np.zeros((tau.size, d, 3 * d))
+    for c in range(d):
+        design[:, c, 3 * c:3 * c + 3] = X
+    return Flight(index=index, model="quadratic", params=coef.T.ravel(),
+                  cov=block_diagonal(*(s * xtx_inv for s in s2)), residuals=resid,
+                  dof=pos.size - coef.size, tau=tau, design=design.reshape(tau.size * d, -1))
+
+
+@dataclass(frozen=True)
+class Aero:
+    """What is known of the aerodynamic coefficients before a flight is fitted (1/m).
+
+    ``k_max`` bounds the drag coefficient ``k`` (``0 <= k <= k_max``) and each lift component
+    (``|c_i| <= k_max``). ``k_mean``/``k_sd``: a normal prior on ``k`` (the ball's expected
+    drag); None: none, the bounds only. ``lift_sd``: the normal prior's SD of each lift
+    component (mean 0: the spin is not known)."""
+
+    k_max: float
+    k_mean: float | None = None
+    k_sd: float | None = None
+    lift_sd: float | None = None
+    lift: bool = True
+
+    def prior_sd(self, d: int, n_lift: int) -> np.ndarray:
+        """Prior SD of (k, lift...) (inf: no prior)."""
+        k_sd = self.k_sd if self.k_sd is not None else math.inf
+        lift_sd = self.lift_sd if self.lift_sd is not None else 0.5 * self.k_max
+        return np.r_[k_sd, np.full(n_lift, lift_sd)]
+
+    def prior_mean(self, n_lift: int) -> np.ndarray:
+        """Prior mean of (k, lift...)."""
+        return np.r_[self.k_mean if self.k_mean is not None else 0.0, np.zeros(n_lift)]
+
+
+def fit_drag(tau: np.ndarray, pos: np.ndarray, start: Flight, aero: Aero,
+             noise: float | None) -> Flight:
+    """Aerodynamic fit of one flight, or ``start`` (the drag-free fit) with the reason.
+
+    Tries drag and lift, ``r'' = a - k |v| v + |v| (c x v)`` (``c`` normal to the plane in 2-D;
+    in 3-D normal to the velocity at the impact, since a lift component along the velocity has
+    no effect there and is not determined), then drag alone, then gives up. ``k`` and ``c`` are
+    bounded (``aero.k_max``) and carry normal priors (``aero``: the lift's mean 0, since the
+    spin is not known; the drag's the ball's expected value, where known), so that a short
+    flight gets the uncertainty of what it cannot determine instead of a wild estimate. Each
+    fit starts from the drag-free fit linearised in ``k`` and ``c`` (one Gauss-Newton step from
+    ``k = c = 0``, a linear least-squares problem) and runs SciPy's trust-region reflective
+    ``least_squares`` with the exact Jacobian; it is refused when the flight has fewer than 8
+    samples, the fit fails, a coefficient ends on a bound, or (without a prior) the flight
+    cannot tell the drag (its standard error exceeds ``k_max``).
+    """
     if tau.size < DRAG_MIN_POINTS:
         return _fallback(start, f"too short for the drag fit ({tau.size} samples, need "
                                 f"{DRAG_MIN_POINTS})")
-    p0 = _linearised_start(tau, pos, start, k_max)
-    order = np.argsort(tau)  # any order works; keep residuals in time order
-
-    def residuals(p: np.ndarray) -> np.ndarray:
-        return (_drag.solve(p, d, tau[order])[0] - pos[order]).ravel()
-
-    def jacobian(p: np.ndarray) -> np.ndarray:
-        return _drag.solve(p, d, tau[order])[2].reshape(-1, p.size)
-
-    low = np.r_[np.full(3 * d, -np.inf), 0.0]
-    high = np.r_[np.full(3 * d, np.inf), k_max]
-    with np.errstate(all="ignore"):
-        res = least_squares(residuals, p0, jac=jacobian, bounds=(low, high), method="trf",
-                            x_scale="jac", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=50)
-    return _accept_drag(start, res, order, pos.size - p0.size, k_max, noise)
+    reasons: list[str] = []
+    for with_lift in ((True, False) if aero.lift else (False,)):
+        flight, reason = _fit_aero(tau, pos, start, aero, noise, with_lift)
+        if flight is not None:
+            return flight if not reasons else replace(
+                flight, note=f"{reasons[0]}: fitted with drag only")
+        reasons.append(reason)
+    return _fallback(start, "; ".join(dict.fromkeys(reasons)))
 
 
-def _linearised_start(tau: np.ndarray, pos: np.ndarray, start: Flight,
-                      k_max: float) -> np.ndarray:
-    """(r0, v0, a, k) of one Gauss-Newton step from the drag-free fit with k = 0: the model is
-    linear in r0, v0, a and, to first order, in k (sensitivity -integral of |v| v)."""
-    d = pos.shape[1]
-    quad = start.params.reshape(d, 3)
-    p = np.concatenate([quad[:, 0], quad[:, 1], 2 * quad[:, 2], [0.0]])
-    with np.errstate(all="ignore"):
-        R, _, SR, _ = _drag.solve(p, d, tau)
-        J = SR.reshape(-1, p.size)
-        step, *_ = np.linalg.lstsq(J, (pos - R).ravel(), rcond=None)
-    p = p + np.where(np.isfinite(step), step, 0.0)
-    p[-1] = min(max(p[-1], 0.05 * k_max), 0.95 * k_max)  # strictly inside the bounds
-    return p
-
-
-def _accept_drag(start: Flight, res, order: np.ndarray, dof: int, k_max: float,
-                 noise: float | None) -> Flight:
+def _lift_basis(start: Flight, with_lift: bool) -> np.ndarray:
+    """Columns spanning the fitted lift vectors: none; (1) in 2-D; two unit vectors normal to
+    the drag-free fit's velocity at ``tau = 0`` in 3-D."""
     d = start.d
-    k = float(res.x[-1]) if np.all(np.isfinite(res.x)) else math.nan
-    if res.status <= 0 or not math.isfinite(k) or not np.all(np.isfinite(res.fun)):
-        return _fallback(start, f"the drag fit did not converge ({res.message})")
-    if k >= (1 - _BOUND_FRACTION) * k_max:
-        return _fallback(start, f"the drag fit ran to the upper bound k = {k_max:g} /m (the "
-                                "flight slows more than air drag can; a tracking fault?)")
-    if k <= _BOUND_FRACTION * k_max:
-        return _fallback(start, "the drag fit found no drag (k = 0)")
-    resid = res.fun.reshape(-1, d)
-    s2 = float(np.sum(resid**2)) / dof if noise is None else noise**2
-    cov = _covariance(res.jac, s2)
+    if not with_lift:
+        return np.zeros((0 if d == 2 else 3, 0))
+    if d == 2:
+        return np.ones((1, 1))
+    v = start.params.reshape(d, 3)[:, 1]
+    e1 = np.cross(v, [0.0, 1.0, 0.0] if abs(v[1]) < 0.9 * np.linalg.norm(v) else [1.0, 0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(v, e1)
+    return np.column_stack([e1, e2 / np.linalg.norm(e2)])
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """One aerodynamic least-squares problem: parameters ``q`` (r0, v0, a, k, lift) map to
+    the kernel's ``p = T q``; prior rows are scaled by ``scale`` (the noise SD)."""
+
+    tau: np.ndarray
+    pos: np.ndarray
+    T: np.ndarray
+    mean: np.ndarray
+    sd: np.ndarray
+    scale: float
+    noise: float | None = None  # stated position noise, if any
+
+    @property
+    def d(self) -> int:
+        return int(self.pos.shape[1])
+
+    def prior_rows(self) -> np.ndarray:
+        """The Jacobian of the prior residuals (rows for the parameters with a prior)."""
+        n = self.T.shape[1]
+        rows = np.zeros((self.sd.size, n))
+        rows[:, 3 * self.d:] = np.diag(self.scale / self.sd)
+        return rows[np.isfinite(self.sd)]
+
+    def residuals(self, q: np.ndarray) -> np.ndarray:
+        model = (_drag.solve(self.T @ q, self.d, self.tau)[0] - self.pos).ravel()
+        prior = self.scale * (q[3 * self.d:] - self.mean) / self.sd
+        return np.r_[model, prior[np.isfinite(self.sd)]]
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        model = _drag.solve(self.T @ q, self.d, self.tau)[2].reshape(-1, self.T.shape[0])
+        return np.vstack([model @ self.T, self.prior_rows()])
+
+
+def _fit_aero(tau: np.ndarray, pos: np.ndarray, start: Flight, aero: Aero,
+              noise: float | None, with_lift: bool) -> tuple[Flight | None, str]:
+    """One aerodynamic model fitted, or None and why not."""
+    d = pos.shape[1]
+    basis = _lift_basis(start, with_lift)
+    T = block_diagonal(np.eye(3 * d + 1), basis)
+    n_lift = basis.shape[1]
+    scale = noise if noise is not None else math.sqrt(max(start.s2, 1e-30))
+    problem = _Problem(tau, pos, T, aero.prior_mean(n_lift), aero.prior_sd(d, n_lift), scale,
+                       noise)
+    low = np.r_[np.full(3 * d, -np.inf), 0.0, np.full(n_lift, -aero.k_max)]
+    high = np.r_[np.full(3 * d, np.inf), aero.k_max, np.full(n_lift, aero.k_max)]
+    q0, k_se = _linearised_start(problem, start, aero.k_max)
+    if k_se > aero.k_max:  # decided before any iteration: the common case of a short flight
+        return None, (f"the flight is too short to tell the drag (k +- {k_se:.2g} /m from a "
+                      f"linearised fit; range 0-{aero.k_max:g} /m)")
+    res = None
+    with np.errstate(all="ignore"):
+        if not np.all(np.isfinite(problem.residuals(q0))):  # the linearised step overshot
+            q0 = _linearised_start(problem, start, aero.k_max, step=False)[0]
+        for _ in range(2):  # a second pass if the fit's own noise rescales the prior much
+            try:
+                res = least_squares(problem.residuals, q0, jac=problem.jacobian,
+                                    bounds=(low, high), method="trf", x_scale="jac",
+                                    max_nfev=50)
+            except ValueError as exc:  # residuals not finite at the start: nothing to fit
+                return None, f"the drag fit cannot start ({exc})"
+            s = math.sqrt(float(np.sum(res.fun[:pos.size] ** 2)) / (pos.size - q0.size))
+            if noise is not None or res.status <= 0 or abs(s / problem.scale - 1) < 0.3:
+                break
+            problem, q0 = replace(problem, scale=max(s, 1e-15)), np.clip(res.x, low, high)
+    return _accept(start, problem, res, aero)
+
+
+def _linearised_start(problem: _Problem, start: Flight, k_max: float,
+                      step: bool = True) -> tuple[np.ndarray, float]:
+    """(r0, v0, a, k, lift) of one Gauss-Newton step from the drag-free fit with no drag and
+    no lift (the model is linear in r0, v0, a and, to first order, in k and the lift), and the
+    standard error of k that linearisation gives (``step=False``: the drag-free fit itself,
+    with a small k)."""
+    d = start.d
+    quad = start.params.reshape(d, 3)
+    q = np.concatenate([quad[:, 0], quad[:, 1], 2 * quad[:, 2],
+                        np.zeros(problem.T.shape[1] - 3 * d)])
+    q[3 * d] = 0.05 * k_max
+    if not step:
+        return q, 0.0
+    with np.errstate(all="ignore"):
+        jac = problem.jacobian(q)
+        delta, *_ = np.linalg.lstsq(jac, -problem.residuals(q), rcond=None)
+        cov = _covariance(jac[:problem.pos.size], problem.scale**2, problem.sd)
+    k_se = math.sqrt(cov[3 * d, 3 * d]) if cov is not None else math.inf
+    q = q + np.where(np.isfinite(delta), delta, 0.0)
+    q[3 * d] = min(max(q[3 * d], 0.05 * k_max), 0.95 * k_max)  # strictly inside the bounds
+    q[3 * d + 1:] = np.clip(q[3 * d + 1:], -0.95 * k_max, 0.95 * k_max)
+    return q, k_se
+
+
+def _accept(start: Flight, problem: _Problem, res, aero: Aero) -> tuple[Flight | None, str]:
+    d, k_max = start.d, aero.k_max
+    n_model = problem.pos.size
+    what = "the drag and lift fit" if problem.T.shape[1] > 3 * d + 1 else "the drag fit"
+    if res.status <= 0 or not (np.all(np.isfinite(res.x)) and np.all(np.isfinite(res.fun))):
+        return None, f"{what} did not converge ({res.message})"
+    k, c = float(res.x[3 * d]), res.x[3 * d + 1:]
+    dof = n_model - res.x.size
+    s2 = float(np.sum(res.fun[:n_model] ** 2)) / dof if problem.noise is None else \
+        problem.noise**2
+    cov = _covariance(res.jac[:n_model], s2, problem.sd)
     if cov is None:
-        return _fallback(start, "the drag fit's parameters are not determined (singular "
-                                "Jacobian)")
-    k_se = math.sqrt(cov[-1, -1])
-    if k_se > k_max:
-        return _fallback(start, f"the flight is too short to tell the drag (k = {k:.2g} +- "
-                                f"{k_se:.2g} /m, range 0-{k_max:g})")
-    back = np.empty_like(resid)
-    back[order] = resid
-    return Flight(index=start.index, model="drag", params=res.x.copy(), cov=cov,
-                  residuals=back, dof=dof, drag_k=k, drag_k_se=k_se)
+        return None, f"{what}: the parameters are not determined (singular Jacobian)"
+    se = np.sqrt(np.diag(cov)[3 * d:])
+    if se[0] > k_max:
+        return None, (f"the flight is too short to tell the drag (k = {k:.2g} +- "
+                      f"{se[0]:.2g} /m; range 0-{k_max:g} /m)")
+    if k >= (1 - _BOUND_FRACTION) * k_max:
+        return None, (f"{what} ran to the upper bound k = {k_max:g} /m (the flight slows more "
+                      "than air drag can; a tracking fault?)")
+    if np.any(np.abs(c) >= (1 - _BOUND_FRACTION) * k_max):
+        return None, f"{what} ran to the bound of the lift, {k_max:g} /m"
+    if k <= _BOUND_FRACTION * k_max:
+        return None, f"{what} found no drag (k = 0)"
+    p = problem.T @ res.x
+    return Flight(index=start.index, model="drag", params=p,
+                  cov=problem.T @ cov @ problem.T.T, residuals=res.fun[:n_model].reshape(-1, d),
+                  dof=dof, tau=problem.tau, design=res.jac[:n_model], drag_k=k,
+                  drag_k_se=float(se[0]), lift=p[3 * d + 1:].copy() if c.size else None), ""
 
 
-def _covariance(jac: np.ndarray, s2: float) -> np.ndarray | None:
-    """``s2 (J^T J)^-1`` with column scaling (r0, v0, a and k differ in units); None if
-    singular."""
-    scale = np.linalg.norm(jac, axis=0)
+def _covariance(jac: np.ndarray, s2: float, prior_sd: np.ndarray) -> np.ndarray | None:
+    """Laplace covariance ``(J^T J / s2 + prior precision)^-1`` with column scaling (r0, v0,
+    a, k differ in units); None if singular."""
+    n = jac.shape[1]
+    precision = np.zeros(n)
+    precision[n - prior_sd.size:] = np.where(np.isfinite(prior_sd), 1 / prior_sd**2, 0.0)
+    info = jac.T @ jac / s2 + np.diag(precision)
+    scale = np.sqrt(np.diag(info))
     if not np.all(np.isfinite(scale)) or np.any(scale == 0):
         return None
-    js = jac / scale
-    jtj = js.T @ js
-    if not np.isfinite(jtj).all() or np.linalg.cond(jtj) > 1e14:
+    scaled = info / np.outer(scale, scale)
+    if not np.isfinite(scaled).all() or np.linalg.cond(scaled) > 1e14:
         return None
-    return s2 * np.linalg.inv(jtj) / np.outer(scale, scale)
+    return np.linalg.inv(scaled) / np.outer(scale, scale)
+
+
+def trend_test(flight: Flight, noise: float | None) -> float:
+    """p-value of a cubic trend the flight's model lacks: a score test of one more term
+    ``tau^3`` per coordinate, orthogonal to the model's own derivatives (an F test with the
+    residual variance, a chi-square test with a stated noise). A smooth change of the
+    acceleration along the flight (drag or lift the model lacks, or has wrong) shows first as
+    such a term, and it is what biases the velocities at the impact."""
+    if flight.tau is None or flight.design is None:
+        return 1.0
+    n, d = flight.residuals.shape
+    scale = float(np.max(np.abs(flight.tau))) or 1.0
+    cube = np.zeros((n, d, d))
+    for c in range(d):
+        cube[:, c, c] = (flight.tau / scale) ** 3
+    Z = cube.reshape(n * d, d)
+    J = flight.design
+    with np.errstate(all="ignore"):
+        Zp = Z - J @ np.linalg.lstsq(J, Z, rcond=None)[0]
+        e = flight.residuals.ravel()
+        b, *_ = np.linalg.lstsq(Zp, e, rcond=None)
+        explained = float(e @ (Zp @ b))
+    rss = float(e @ e)
+    dof = flight.dof - d
+    if not (math.isfinite(explained) and dof > 0) or rss <= n * d * 1e-18:
+        return 1.0
+    if noise is not None:
+        return float(special.chdtrc(d, explained / noise**2))
+    f = (explained / d) / (max(rss - explained, 1e-300) / dof)
+    return float(special.fdtrc(d, dof, f))
+
+
+def sample_outlier_p(flight: Flight, i: int) -> float:
+    """p-value of sample ``i`` (position in the flight) being this far off the fit of the
+    others: its externally studentized residual, ``e_i^T (I - H_ii)^-1 e_i / d`` over the
+    leave-one-out residual variance, F with ``(d, dof - d)`` degrees of freedom (``H``: the
+    hat matrix of the model's derivatives)."""
+    if flight.design is None:
+        return 1.0
+    n, d = flight.residuals.shape
+    J = flight.design
+    e = flight.residuals[i]
+    with np.errstate(all="ignore"):
+        Ji = J[i * d:(i + 1) * d]
+        h = Ji @ np.linalg.pinv(J.T @ J) @ Ji.T
+        q = float(e @ np.linalg.solve(np.eye(d) - h, e))
+    dof = flight.dof - d
+    rest = flight.rss - q
+    if not (math.isfinite(q) and dof > 0) or rest <= n * d * 1e-18:
+        return 1.0
+    return float(special.fdtrc(d, dof, (q / d) / (rest / dof)))
+
+
+def block_diagonal(*blocks: np.ndarray) -> np.ndarray:
+    """The block-diagonal matrix of 2-D ``blocks`` (SciPy's ``block_diag`` costs 0.5 ms a
+    call, which the fit of one trajectory would pay dozens of times)."""
+    rows = sum(b.shape[0] for b in blocks)
+    cols = sum(b.shape[1] for b in blocks)
+    out = np.zeros((rows, cols))
+    r = c = 0
+    for b in blocks:
+        out[r:r + b.shape[0], c:c + b.shape[1]] = b
+        r, c = r + b.shape[0], c + b.shape[1]
+    return out
 
 
 def _fallback(start: Flight, reason: str) -> Flight:
-    return Flight(index=start.index, model=start.model, params=start.params, cov=start.cov,
-                  residuals=start.residuals, dof=start.dof, note=f"{reason}: fitted without "
-                                                                  "drag")
+    return replace(start, note=f"{reason}: fitted without drag")

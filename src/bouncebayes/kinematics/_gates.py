@@ -6,10 +6,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from ._config import FitConfig
-from ._flight import Flight
+from . import _drag
+from ._flight import Flight, trend_test
 from ._observe import Observation
 from ._read import Trajectory
 from ._result import TrajectoryError
@@ -29,6 +30,7 @@ def apply_gates(name: str, traj: Trajectory, pre: Flight, post: Flight, obs: Obs
     _directions(name, obs, t_ref)
     out = _residuals(name, pre, post, cfg)
     _standard_errors(name, obs, cfg)
+    out["drag_bias_z"] = _drag_neglect(name, pre, post, obs, cfg)
     out["gap_z"] = _gap(name, traj, pre, post, obs, t_ref, cfg)
     out["energy_z"] = _energy(name, obs, cfg, allowance)
     return out
@@ -48,6 +50,15 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
     levels in both (unknown noise: F test) or each consistent with the stated noise."""
     out = {}
     for side, flight in (("before", pre), ("after", post)):
+        p = trend_test(flight, cfg.position_noise)
+        out[f"p_trend_{side}"] = p
+        if p < cfg.p_min:
+            raise TrajectoryError(name, f"the residuals {side} the impact hold a cubic trend "
+                                        f"(score test p = {p:.2g} < {cfg.p_min:g}): "
+                                        f"{_WHY_MISFIT}" + ("" if cfg.fit_drag else
+                                                            "; for a light ball try `drag = "
+                                                            "\"quadratic\"`"),
+                                  reason="misfit")
         ratio, p = misfit_ratio(flight.residuals)
         out[f"misfit_{side}"] = ratio
         if ratio > cfg.max_misfit and p < cfg.p_min:
@@ -61,7 +72,7 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
     if cfg.position_noise is not None:
         for side, flight in (("before", pre), ("after", post)):
             chi2 = flight.rss / cfg.position_noise**2
-            p = float(stats.chi2.sf(chi2, flight.dof))
+            p = float(special.chdtrc(flight.dof, chi2))
             out[f"p_noise_{side}"] = p
             if p < cfg.p_min:
                 raise TrajectoryError(name, f"the residuals {side} the impact are "
@@ -72,7 +83,7 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
         return out
     if max(pre.s2, post.s2) > _EXACT**2:
         f = pre.s2 / post.s2 if post.s2 > 0 else math.inf
-        p = float(2 * min(stats.f.sf(f, pre.dof, post.dof), stats.f.cdf(f, pre.dof, post.dof)))
+        p = float(2 * min(special.fdtrc(pre.dof, post.dof, f), special.fdtr(pre.dof, post.dof, f)))
         out["p_equal_noise"] = p
         if p < cfg.p_min and max(f, 1 / f) > cfg.max_noise_ratio**2:
             worse, other = ("before", "after") if f > 1 else ("after", "before")
@@ -94,7 +105,7 @@ def misfit_ratio(residuals: np.ndarray) -> tuple[float, float]:
         return 1.0, 1.0
     eta = float(np.sum(np.diff(residuals, axis=0) ** 2)) / den
     sd = math.sqrt(4.0 * (n - 2) / ((n + 1) * (n - 1)) / d)
-    return (2.0 / eta if eta > 0 else math.inf), float(stats.norm.sf((2.0 - eta) / sd))
+    return (2.0 / eta if eta > 0 else math.inf), float(special.ndtr(-(2.0 - eta) / sd))
 
 
 def _standard_errors(name: str, obs: Observation, cfg: FitConfig) -> None:
@@ -112,6 +123,45 @@ def _standard_errors(name: str, obs: Observation, cfg: FitConfig) -> None:
                                         f"a standard error must be finite and at most "
                                         f"{allowed}: the flights do not determine it (too few "
                                         "or too noisy samples)", reason="implausible errors")
+
+
+def _drag_neglect(name: str, pre: Flight, post: Flight, obs: Observation,
+                  cfg: FitConfig) -> float:
+    """Without a drag fit but with the ball's expected drag ``cfg.drag_k``: how far (in
+    standard errors) ignoring that drag moves the observables. Each flight is recomputed as air
+    drag would make it, from its fitted state and acceleration at the impact, and refitted
+    with constant acceleration; the change of the velocities at the impact is the bias."""
+    if cfg.fit_drag or cfg.drag_k is None:
+        return 0.0
+    bias = np.concatenate([_velocity_bias(f, obs.tau, cfg.drag_k) for f in (pre, post)])
+    with np.errstate(all="ignore"):
+        z = np.abs(obs.jac_velocity @ bias) / obs.se
+    z = np.where(np.isfinite(z), z, 0.0)
+    worst = int(np.argmax(z))
+    if z[worst] > cfg.max_drag_bias:
+        labels = ["incidence speed", "incidence angle", "rebound speed", "rebound angle",
+                  "lateral angle"]
+        raise TrajectoryError(name, f"air drag on this ball (k = {cfg.drag_k:.2g} /m expected) "
+                                    f"moves the {labels[worst]} by {z[worst]:.3g} standard "
+                                    f"errors over these flights (limit {cfg.max_drag_bias:g}) "
+                                    "and the fit leaves it out: set `drag = \"quadratic\"` in "
+                                    "[trajectories]", reason="misfit")
+    return float(z[worst])
+
+
+def _velocity_bias(flight: Flight, tau_i: float, k: float) -> np.ndarray:
+    """Velocity at the impact that a constant-acceleration fit makes of this flight under air
+    drag ``k``, minus the true one."""
+    if flight.tau is None:
+        return np.zeros(flight.d)
+    r, v, a, *_ = flight.state(tau_i)
+    taus = flight.tau - tau_i
+    with np.errstate(all="ignore"):
+        R = _drag.solve(np.r_[r, v, a, k], flight.d, taus)[0]
+        X = np.column_stack([np.ones_like(taus), taus, taus * taus])
+        coef, *_ = np.linalg.lstsq(X, R, rcond=None)
+    bias = coef[1] - v
+    return np.where(np.isfinite(bias), bias, 0.0)
 
 
 def _gap(name: str, traj: Trajectory, pre: Flight, post: Flight, obs: Observation,

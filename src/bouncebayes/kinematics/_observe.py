@@ -14,9 +14,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import block_diag
-
-from ._flight import Flight
+from ._flight import Flight, block_diagonal
 from ._result import observables
 
 _NEWTON_ITERATIONS = 30
@@ -35,6 +33,7 @@ class Observation:
     v_out: np.ndarray
     a_in: np.ndarray  #: acceleration of the flight before at the impact
     a_out: np.ndarray
+    jac_velocity: np.ndarray  #: d(values)/d(v_in, v_out)
 
     @property
     def se(self) -> np.ndarray:
@@ -78,12 +77,13 @@ def observe(pre: Flight, post: Flight, tau0: float,
     jv = np.hstack([jv, tilt[:, None]])
     dtau = np.r_[dtau, 0.0]
     sd = math.radians(tilt_sd_deg or 0.0)
-    cov_theta = block_diag(pre.cov, post.cov, np.array([[sd * sd]]))
+    cov_theta = block_diagonal(pre.cov, post.cov, np.array([[sd * sd]]))
     values, jobs = _observables_jacobian(v1, v2)
     jac = jobs @ jv
     cov = jac @ cov_theta @ jac.T
     tau_var = float(dtau @ cov_theta @ dtau)
-    return Observation(values, cov, float(tau), math.sqrt(max(tau_var, 0.0)), v1, v2, a1, a2)
+    return Observation(values, cov, float(tau), math.sqrt(max(tau_var, 0.0)), v1, v2, a1, a2,
+                       jobs)
 
 
 def _turn(v: np.ndarray) -> np.ndarray:
