@@ -37,6 +37,7 @@ from ._fit import fit_bounces as fit_bounces
 from ._fit import fit_kinematics as fit_kinematics
 from ._flight import DRAG_MIN_POINTS as DRAG_MIN_POINTS
 from ._folder import FolderKinematics as FolderKinematics
+from ._folder import ball_drag as ball_drag
 from ._folder import kinematics_from_folder as kinematics_from_folder
 from ._folder import trial_table_from_folder as trial_table_from_folder
 from ._folder import trials_from_kinematics as trials_from_kinematics
@@ -57,7 +58,7 @@ from ._spin import read_spin_table as read_spin_table
 __all__ = ["DRAG_MIN_POINTS", "DRAG_MODELS", "LENGTH_UNITS", "MIN_TRACKED_POINTS",
            "OUTLIER_NOISE_SD", "PROMINENCE_IN_NOISE_SD", "REPEAT_AGREEMENT_SD",
            "SAMPLE_INTERVAL_RANGE", "SPEED_RANGE", "SPIN_FILE", "TRIAL_TABLE_COLUMNS", "Drag",
-           "FailureReason", "FitConfig", "FolderKinematics", "Kinematics", "LengthUnit",
+           "FailureReason", "FitConfig", "FolderKinematics", "ball_drag", "Kinematics", "LengthUnit",
            "Trajectory", "TrajectoryError", "find_bounces", "fit_bounces", "fit_kinematics",
            "kinematics_from_folder", "read_spin_table", "read_trajectory", "refer_to_contact",
            "trajectory_from_arrays", "trial_table_from_folder", "trials_from_kinematics",

@@ -191,11 +191,16 @@ def _median_speed(t: np.ndarray, pos: np.ndarray, dt: float) -> float:
 
 
 def _speed_hint(speed: float, length_unit: str, scales: dict[str, float]) -> str:
+    """The units that would make ``speed`` plausible, most typical first (a bouncing ball
+    moves at about 3 m/s)."""
     low, high = SPEED_RANGE
-    for unit, scale in scales.items():
-        if unit != length_unit and low <= speed * scale / scales[length_unit] <= high:
-            return (f"are the positions in {unit}? set `length_unit = \"{unit}\"` in "
-                    f"[trajectories] (it is {length_unit!r})")
+    fits = sorted(((abs(math.log(speed * scale / scales[length_unit] / 3.0)), unit,
+                    speed * scale / scales[length_unit]) for unit, scale in scales.items()
+                   if unit != length_unit and low <= speed * scale / scales[length_unit] <= high))
+    if fits:
+        units = " or ".join(f"{unit} ({value:.3g} m/s)" for _, unit, value in fits)
+        return (f"are the positions in {units}? set `length_unit` in [trajectories] (it is "
+                f"{length_unit!r})")
     if low <= speed * 1e3 <= high:
         return "are the times in ms? times must be in seconds"
     return f"check the units: times in s, positions in `length_unit` ({length_unit!r})"

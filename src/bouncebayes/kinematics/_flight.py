@@ -222,8 +222,14 @@ def _fit_aero(tau: np.ndarray, pos: np.ndarray, start: Flight, aero: Aero,
                        noise)
     low = np.r_[np.full(3 * d, -np.inf), 0.0, np.full(n_lift, -aero.k_max)]
     high = np.r_[np.full(3 * d, np.inf), aero.k_max, np.full(n_lift, aero.k_max)]
-    q0, k_se = _linearised_start(problem, start, aero.k_max)
-    if k_se > aero.k_max:  # decided before any iteration: the common case of a short flight
+    q0, k_lin, k_se = _linearised_start(problem, start, aero.k_max)
+    # decided before any iteration: a flight that slows far more than air drag can (the fit
+    # would run to the bound), or one too short to tell (the common case)
+    if k_lin - 3 * k_se > aero.k_max:
+        return None, (f"the flight slows more than air drag can (k = {k_lin:.2g} +- "
+                      f"{k_se:.2g} /m from a linearised fit; range 0-{aero.k_max:g} /m): the "
+                      "drag fit would diverge; a tracking fault?")
+    if k_se > aero.k_max and aero.k_sd is None:
         return None, (f"the flight is too short to tell the drag (k +- {k_se:.2g} /m from a "
                       f"linearised fit; range 0-{aero.k_max:g} /m)")
     res = None
@@ -245,10 +251,11 @@ def _fit_aero(tau: np.ndarray, pos: np.ndarray, start: Flight, aero: Aero,
 
 
 def _linearised_start(problem: _Problem, start: Flight, k_max: float,
-                      step: bool = True) -> tuple[np.ndarray, float]:
+                      step: bool = True) -> tuple[np.ndarray, float, float]:
     """(r0, v0, a, k, lift) of one Gauss-Newton step from the drag-free fit with no drag and
-    no lift (the model is linear in r0, v0, a and, to first order, in k and the lift), and the
-    standard error of k that linearisation gives (``step=False``: the drag-free fit itself,
+    no lift (the model is linear in r0, v0, a and, to first order, in k and the lift), kept
+    strictly inside the bounds, and the estimate and standard error of k that linearisation
+    gives from the data alone, without the prior (``step=False``: the drag-free fit itself,
     with a small k)."""
     d = start.d
     quad = start.params.reshape(d, 3)
@@ -256,16 +263,20 @@ def _linearised_start(problem: _Problem, start: Flight, k_max: float,
                         np.zeros(problem.T.shape[1] - 3 * d)])
     q[3 * d] = 0.05 * k_max
     if not step:
-        return q, 0.0
+        return q, q[3 * d], 0.0
     with np.errstate(all="ignore"):
         jac = problem.jacobian(q)
         delta, *_ = np.linalg.lstsq(jac, -problem.residuals(q), rcond=None)
-        cov = _covariance(jac[:problem.pos.size], problem.scale**2, problem.sd)
+        # what the data alone say of k, to first order (no prior): the divergence check
+        n = problem.pos.size
+        alone, *_ = np.linalg.lstsq(jac[:n], -problem.residuals(q)[:n], rcond=None)
+        cov = _covariance(jac[:n], problem.scale**2, np.full(problem.sd.size, np.inf))
     k_se = math.sqrt(cov[3 * d, 3 * d]) if cov is not None else math.inf
+    k_alone = float(q[3 * d] + alone[3 * d]) if np.isfinite(alone[3 * d]) else math.nan
     q = q + np.where(np.isfinite(delta), delta, 0.0)
     q[3 * d] = min(max(q[3 * d], 0.05 * k_max), 0.95 * k_max)  # strictly inside the bounds
     q[3 * d + 1:] = np.clip(q[3 * d + 1:], -0.95 * k_max, 0.95 * k_max)
-    return q, k_se
+    return q, k_alone, k_se
 
 
 def _accept(start: Flight, problem: _Problem, res, aero: Aero) -> tuple[Flight | None, str]:

@@ -22,12 +22,21 @@ from ._read import LENGTH_UNITS, LengthUnit, read_trajectory
 from ._result import Kinematics, TrajectoryError
 from ._spin import SPIN_FILE, SpinRow, check_spin_names, read_spin_table, spin_for
 
-# The drag coefficient k = rho C_d pi r^2 / (2 m) of a ball in air stays below its value for
-# dense air (1.3 kg/m^3, 0 degC at sea level) and C_d = 1 (a sphere's drag coefficient is below
-# 0.5 for Reynolds numbers 1e3-2e5 and reaches 1 near Re = 100, below any ball of >= 1 cm moving
-# at >= 0.2 m/s; F.M. White, Fluid Mechanics, 7th ed., 2011, fig. 7.16).
+# The drag coefficient k = rho C_d pi r^2 / (2 m) of a ball in air: expected with air at
+# 20 degC (1.2 kg/m^3) and a sphere's C_d = 0.47 (Reynolds numbers 1e3-2e5); at most its value
+# for dense air (1.3 kg/m^3, 0 degC at sea level) and C_d = 1 (reached near Re = 100, below any
+# ball of >= 1 cm moving at >= 0.2 m/s). F.M. White, Fluid Mechanics, 7th ed., 2011, fig. 7.16.
+AIR_DENSITY = 1.2  # kg/m^3
+SPHERE_DRAG_COEFFICIENT = 0.47
 AIR_DENSITY_MAX = 1.3  # kg/m^3
 DRAG_COEFFICIENT_MAX = 1.0
+
+
+def ball_drag(ball) -> tuple[float, float]:
+    """Expected and largest drag coefficient ``k = rho C_d pi r^2 / (2 m)`` of a ball (1/m)."""
+    area_per_mass = math.pi * ball.radius**2 / (2 * ball.mass)
+    return (AIR_DENSITY * SPHERE_DRAG_COEFFICIENT * area_per_mass,
+            AIR_DENSITY_MAX * DRAG_COEFFICIENT_MAX * area_per_mass)
 
 
 @dataclass(frozen=True)
@@ -194,8 +203,10 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
     """The experiment's trial table from a folder of trajectories.
 
     Every file is fitted with the experiment's ``[trajectories]`` settings (rotation, length
-    unit, drag; the drag coefficient kept below its largest physical value for the
-    experiment's ball in air), with the ball's spin energy allowed for in the energy gate, the
+    unit, drag) and what the experiment's ball implies (:func:`ball_drag`: the expected drag
+    coefficient as the prior of the drag fit, or, without it, to check that ignoring drag
+    biases nothing; its largest physical value as the bound), with the ball's spin energy
+    allowed for in the energy gate, the
     results referred to the contact instants (:func:`refer_to_contact`) and written to ``out``
     with ``provenance`` plus what this step used (settings, input files and their SHA-256).
     ``log`` gets the summary of which files were used and why others were not. Returns the
@@ -206,8 +217,8 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
     """
     s = experiment.trajectories
     ball = experiment.ball
-    k_max = AIR_DENSITY_MAX * DRAG_COEFFICIENT_MAX * math.pi * ball.radius**2 / (2 * ball.mass)
-    options = {"drag": s["drag"], "drag_k_max": k_max} | options
+    k, k_max = ball_drag(ball)
+    options = {"drag": s["drag"], "drag_k": k, "drag_k_max": k_max} | options
     found = kinematics_from_folder(folder, rotation_deg=s["rotation_deg"],
                                    length_unit=s["length_unit"], ball=ball,
                                    spin_bound=_spin_bound(experiment), **options)

@@ -52,13 +52,12 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
     for side, flight in (("before", pre), ("after", post)):
         p = trend_test(flight, cfg.position_noise)
         out[f"p_trend_{side}"] = p
+        hint = (f" [{flight.note}]" if flight.note else "") + (
+            "" if cfg.fit_drag else "; for a light ball try `drag = \"quadratic\"`")
         if p < cfg.p_min:
             raise TrajectoryError(name, f"the residuals {side} the impact hold a cubic trend "
                                         f"(score test p = {p:.2g} < {cfg.p_min:g}): "
-                                        f"{_WHY_MISFIT}" + ("" if cfg.fit_drag else
-                                                            "; for a light ball try `drag = "
-                                                            "\"quadratic\"`"),
-                                  reason="misfit")
+                                        f"{_WHY_MISFIT}{hint}", reason="misfit")
         ratio, p = misfit_ratio(flight.residuals)
         out[f"misfit_{side}"] = ratio
         if ratio > cfg.max_misfit and p < cfg.p_min:
@@ -66,9 +65,7 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
                                         f"pattern: their variance is {ratio:.3g} times what "
                                         "their successive differences imply (white noise: 1; "
                                         f"limit {cfg.max_misfit:g}, p = {p:.2g}): {_WHY_MISFIT}"
-                                  + ("" if cfg.fit_drag else "; for a light ball try "
-                                                             "`drag = \"quadratic\"`"),
-                                  reason="misfit")
+                                        f"{hint}", reason="misfit")
     if cfg.position_noise is not None:
         for side, flight in (("before", pre), ("after", post)):
             chi2 = flight.rss / cfg.position_noise**2
