@@ -59,11 +59,18 @@ MEASURED: dict[str, Column] = {
 }
 COLUMNS = MEASURED  # the measured quantities (each may have a standard-error column)
 SE_SUFFIX = "_se"
-SE_DOC = ("standard error of `{name}` (same unit), >= 0; an empty cell: not known. For the "
-          "angles it includes the surface-angle uncertainty where the tracker stated one: a "
-          "tilt of the surface by d changes the incidence angle by -d and the rebound angle by "
-          "+d, so that part of their errors is perfectly anti-correlated (the table holds "
-          "standard errors only)")
+SE_DOC = "standard error of `{name}` (same unit); an empty cell: not known"
+NOTES = (
+    "Angle standard errors include the uncertainty of the surface angle where the tracker "
+    "stated one: a tilt of the surface by d changes the incidence angle by -d and the rebound "
+    "angle by +d, so that part of their errors is perfectly anti-correlated (the table holds "
+    "standard errors only).",
+    "Consecutive bounces of one trajectory file (`<file>#<k>`, `<file>#<k+1>`) share the "
+    "flight between them, so the rebound of one and the incidence of the next have correlated "
+    "errors.",
+    "An optional column is all filled or all empty. An absent incidence column means the "
+    "experiment's nominal value with its bounce-to-bounce spread.",
+)
 SYSTEMATIC: dict[str, Column] = {
     "scale_rel_sd": Column("", "relative standard deviation of the length scale (the camera "
                                "calibration, metres per pixel) the trial was measured with. "
@@ -343,8 +350,8 @@ def trial_table_reference() -> str:
         lines.append(f"| `{name}` | {column.doc} | {column.allowed()} |")
     for name in LABEL_COLUMNS:
         lines.append(f"| `{name}` | {LABEL_DOC[name]} | text |")
-    lines += ["", "An optional column is all filled or all empty. An absent incidence column "
-                  "means the experiment's nominal value with its bounce-to-bounce spread."]
+    for note in NOTES:
+        lines += ["", note]
     return "\n".join(lines) + "\n"
 
 

@@ -227,11 +227,11 @@ def _fit_aero(tau: np.ndarray, pos: np.ndarray, start: Flight, aero: Aero,
     # would run to the bound), or one too short to tell (the common case)
     if k_lin - 3 * k_se > aero.k_max:
         return None, (f"the flight slows more than air drag can (k = {k_lin:.2g} +- "
-                      f"{k_se:.2g} /m from a linearised fit; range 0-{aero.k_max:g} /m): the "
+                      f"{k_se:.2g} /m from a linearised fit; range 0-{aero.k_max:.2g} /m): the "
                       "drag fit would diverge; a tracking fault?")
     if k_se > aero.k_max and aero.k_sd is None:
         return None, (f"the flight is too short to tell the drag (k +- {k_se:.2g} /m from a "
-                      f"linearised fit; range 0-{aero.k_max:g} /m)")
+                      f"linearised fit; range 0-{aero.k_max:.2g} /m)")
     res = None
     with np.errstate(all="ignore"):
         if not np.all(np.isfinite(problem.residuals(q0))):  # the linearised step overshot
@@ -295,12 +295,12 @@ def _accept(start: Flight, problem: _Problem, res, aero: Aero) -> tuple[Flight |
     se = np.sqrt(np.diag(cov)[3 * d:])
     if se[0] > k_max:
         return None, (f"the flight is too short to tell the drag (k = {k:.2g} +- "
-                      f"{se[0]:.2g} /m; range 0-{k_max:g} /m)")
+                      f"{se[0]:.2g} /m; range 0-{k_max:.2g} /m)")
     if k >= (1 - _BOUND_FRACTION) * k_max:
-        return None, (f"{what} ran to the upper bound k = {k_max:g} /m (the flight slows more "
+        return None, (f"{what} ran to the upper bound k = {k_max:.2g} /m (the flight slows more "
                       "than air drag can; a tracking fault?)")
     if np.any(np.abs(c) >= (1 - _BOUND_FRACTION) * k_max):
-        return None, f"{what} ran to the bound of the lift, {k_max:g} /m"
+        return None, f"{what} ran to the bound of the lift, {k_max:.2g} /m"
     if k <= _BOUND_FRACTION * k_max:
         return None, f"{what} found no drag (k = 0)"
     p = problem.T @ res.x

@@ -226,6 +226,12 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
     if not found.results:
         raise InputFileError(folder, "no usable trajectory file: nothing written")
     results = refer_to_contact(found.results, experiment)
+    stated = sum(k.scale_rel_sd is not None for k in results)
+    if 0 < stated < len(results):
+        log(f"  note: the tracker stated a scale uncertainty for {stated} of {len(results)} "
+            "trials; `scale_rel_sd` is left out of the table (it holds it for every trial "
+            "or none)")
+        results = tuple(replace(k, scale_rel_sd=None) for k in results)
     stamp = {"bouncebayes_version": __version__} | dict(provenance or {}) | {
         "kinematics": {"folder": os.fspath(folder), "experiment": experiment.source,
                        "experiment_sha256": experiment.text_sha256,

@@ -49,6 +49,8 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
     """Residuals consistent with the noise: no smooth pattern in either flight, and equal
     levels in both (unknown noise: F test) or each consistent with the stated noise."""
     out = {}
+    if cfg.position_noise is not None:
+        _stated_noise(name, pre, post, cfg, out)
     for side, flight in (("before", pre), ("after", post)):
         p = trend_test(flight, cfg.position_noise)
         out[f"p_trend_{side}"] = p
@@ -66,29 +68,34 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
                                         "their successive differences imply (white noise: 1; "
                                         f"limit {cfg.max_misfit:g}, p = {p:.2g}): {_WHY_MISFIT}"
                                         f"{hint}", reason="misfit")
-    if cfg.position_noise is not None:
-        for side, flight in (("before", pre), ("after", post)):
-            chi2 = flight.rss / cfg.position_noise**2
-            p = float(special.chdtrc(flight.dof, chi2))
-            out[f"p_noise_{side}"] = p
-            if p < cfg.p_min:
-                raise TrajectoryError(name, f"the residuals {side} the impact are "
-                                            f"{math.sqrt(chi2 / flight.dof):.3g} times the "
-                                            f"stated noise {cfg.position_noise * 1e3:.3g} mm "
-                                            f"(chi-square p = {p:.2g} < {cfg.p_min:g}): "
-                                            f"{_WHY_MISFIT}", reason="misfit")
-        return out
-    if max(pre.s2, post.s2) > _EXACT**2:
+    if cfg.position_noise is None and max(pre.s2, post.s2) > _EXACT**2:
         f = pre.s2 / post.s2 if post.s2 > 0 else math.inf
-        p = float(2 * min(special.fdtrc(pre.dof, post.dof, f), special.fdtr(pre.dof, post.dof, f)))
+        p = float(2 * min(special.fdtrc(pre.dof, post.dof, f),
+                          special.fdtr(pre.dof, post.dof, f)))
         out["p_equal_noise"] = p
         if p < cfg.p_min and max(f, 1 / f) > cfg.max_noise_ratio**2:
             worse, other = ("before", "after") if f > 1 else ("after", "before")
             raise TrajectoryError(name, f"the residuals {worse} the impact are "
                                         f"{math.sqrt(max(f, 1 / f)):.3g} times (in SD) those "
                                         f"{other} (limit {cfg.max_noise_ratio:g}; F test of "
-                                        f"equal noise, p = {p:.2g}): {_WHY_MISFIT}", reason="misfit")
+                                        f"equal noise, p = {p:.2g}): {_WHY_MISFIT}",
+                                  reason="misfit")
     return out
+
+
+def _stated_noise(name: str, pre: Flight, post: Flight, cfg: FitConfig,
+                  out: dict[str, float]) -> None:
+    """Each flight's chi-square against the stated position noise."""
+    noise = float(cfg.position_noise or 0.0)
+    for side, flight in (("before", pre), ("after", post)):
+        chi2 = flight.rss / noise**2
+        p = float(special.chdtrc(flight.dof, chi2))
+        out[f"p_noise_{side}"] = p
+        if p < cfg.p_min:
+            raise TrajectoryError(name, f"the residuals {side} the impact are "
+                                        f"{math.sqrt(chi2 / flight.dof):.3g} times the stated "
+                                        f"noise {noise * 1e3:.3g} mm (chi-square p = {p:.2g} < "
+                                        f"{cfg.p_min:g}): {_WHY_MISFIT}", reason="misfit")
 
 
 def misfit_ratio(residuals: np.ndarray) -> tuple[float, float]:
