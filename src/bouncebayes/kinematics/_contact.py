@@ -33,14 +33,15 @@ def refer_to_contact(results: Sequence[Kinematics], experiment) -> tuple[Kinemat
     nominal = {name: (experiment.priors[name].ppf(0.5) if name in experiment.priors
                       else experiment.fixed_value(name))
                for name in ("mu", "eta", "youngs_modulus", "spin")}
-    spin = np.array([nominal["spin"] if k.incidence_spin is None else k.incidence_spin
+    spin = np.array([k.incidence_spin if k.incidence_spin is not None else nominal["spin"]
                      for k in results])
     v_in = np.array([_velocity(k.incidence_speed, k.incidence_angle, -1.0) for k in results])
     v_out = np.array([_velocity(k.rebound_speed, k.rebound_angle, 1.0) for k in results])
-    a_in = np.array([k.impact_acceleration_before or k.acceleration_before[:2] for k in results])
-    a_out = np.array([k.impact_acceleration_after or k.acceleration_after[:2] for k in results])
+    a_in, a_out = (np.array([getattr(k, f"impact_acceleration_{side}")
+                             or getattr(k, f"acceleration_{side}")[:2] for k in results])
+                   for side in ("before", "after"))
     v0, v_sep = v_in, v_out
-    gy = experiment.gravity * np.cos(np.radians(experiment.inclination))
+    gy = experiment.gravity * math.cos(math.radians(experiment.inclination))
     for _ in range(3):  # fixed point: the contact instants depend weakly on the incidence
         b = simulate(experiment.ball, mu=nominal["mu"], eta=nominal["eta"],
                      speed=np.hypot(v0[:, 0], v0[:, 1]),
@@ -56,12 +57,15 @@ def refer_to_contact(results: Sequence[Kinematics], experiment) -> tuple[Kinemat
         t_x = (d_sep + vs * tc + 0.5 * gy * tc**2) / (vs + gy * tc - v0[:, 1])
         v0 = v_in - a_in * t_x[:, None]
         v_sep = v_out + a_out * (tc - t_x)[:, None]
-    return tuple(replace(k, incidence_speed=float(np.hypot(*v0[i])),
-                         incidence_angle=float(np.degrees(np.arctan2(v0[i, 0], -v0[i, 1]))),
-                         rebound_speed=float(np.hypot(*v_sep[i])),
-                         rebound_angle=float(np.degrees(np.arctan2(v_sep[i, 0], v_sep[i, 1]))),
-                         instants="contact")
-                 for i, k in enumerate(results))
+    return tuple(_referred(k, v0[i], v_sep[i]) for i, k in enumerate(results))
+
+
+def _referred(k: Kinematics, v0: np.ndarray, v_sep: np.ndarray) -> Kinematics:
+    return replace(k, incidence_speed=float(np.hypot(*v0)),
+                   incidence_angle=float(np.degrees(np.arctan2(v0[0], -v0[1]))),
+                   rebound_speed=float(np.hypot(*v_sep)),
+                   rebound_angle=float(np.degrees(np.arctan2(v_sep[0], v_sep[1]))),
+                   instants="contact")
 
 
 def _velocity(speed: float, angle_deg: float, normal_sign: float) -> tuple[float, float]:

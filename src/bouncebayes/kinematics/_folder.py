@@ -104,12 +104,9 @@ def kinematics_from_folder(folder: str | os.PathLike, *,
                                           if spins is not None else [None] * n)
             fits = fit_bounces(traj, config=cfg,
                                energy_allowance=[_allowance(ball, r, bound) for r in rows])
-        except TrajectoryError as exc:
-            failures.append((os.fspath(path), str(exc)))
-            continue
         except InputFileError as exc:
             if spins is not None and exc.path == os.fspath(spin_path):
-                raise
+                raise  # the spin table is wrong, not this file
             failures.append((os.fspath(path), str(exc)))
             continue
         notes += [(path.name, note) for note in traj.notes]

@@ -48,7 +48,7 @@ def _directions(name: str, obs: Observation, t_ref: float) -> None:
 def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str, float]:
     """Residuals consistent with the noise: no smooth pattern in either flight, and equal
     levels in both (unknown noise: F test) or each consistent with the stated noise."""
-    out = {}
+    out: dict[str, float] = {}
     if cfg.position_noise is not None:
         _stated_noise(name, pre, post, cfg, out)
     for side, flight in (("before", pre), ("after", post)):
