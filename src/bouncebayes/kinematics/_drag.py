@@ -147,14 +147,23 @@ def solve(p: np.ndarray, d: int, taus: np.ndarray
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`drag_solution` at any ``taus`` (either sign, any order), in their order."""
     taus = np.asarray(taus, dtype=float)
-    n_par = np.asarray(p).size
+    p = np.asarray(p, dtype=float)
+    if taus.size > 1 and np.all(taus[1:] >= taus[:-1]):  # sorted in time: the usual case
+        i = int(np.searchsorted(taus, 0.0))
+        parts = [drag_solution(p, d, taus[:i][::-1], RK4_MAX_STEP)] if i else []
+        if i < taus.size:
+            parts.append(drag_solution(p, d, taus[i:], RK4_MAX_STEP))
+        if i:
+            parts[0] = tuple(a[::-1] for a in parts[0])
+        return tuple(np.concatenate(arrays) if len(parts) > 1 else arrays[0]
+                     for arrays in zip(*parts, strict=True))  # type: ignore[return-value]
     out = (np.empty((taus.size, d)), np.empty((taus.size, d)),
-           np.empty((taus.size, d, n_par)), np.empty((taus.size, d, n_par)))
+           np.empty((taus.size, d, p.size)), np.empty((taus.size, d, p.size)))
     for side in (taus < 0, taus >= 0):
         idx = np.flatnonzero(side)
         if idx.size:
             idx = idx[np.argsort(np.abs(taus[idx]), kind="stable")]
-            for arr, part in zip(out, drag_solution(np.asarray(p, dtype=float), d, taus[idx],
-                                                    RK4_MAX_STEP), strict=True):
+            for arr, part in zip(out, drag_solution(p, d, taus[idx], RK4_MAX_STEP),
+                                 strict=True):
                 arr[idx] = part
     return out

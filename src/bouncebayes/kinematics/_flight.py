@@ -39,7 +39,7 @@ class Flight:
     drag_k_se: float | None = None
     lift: np.ndarray | None = None  #: the lift vector c (1/m; 2-D: its normal component)
     tau: np.ndarray | None = None  #: sample times from the reference time
-    design: np.ndarray | None = None  #: d(residuals, raveled)/d(fitted parameters)
+    design: np.ndarray | None = None  #: d(residuals, raveled)/d(parameters); None: quadratic
     note: str | None = None  #: why a requested drag fit fell back to constant acceleration
 
     @property
@@ -56,6 +56,17 @@ class Flight:
     def s2(self) -> float:
         """Residual variance per coordinate, ``rss / dof`` (m^2)."""
         return self.rss / self.dof
+
+    def jacobian(self) -> np.ndarray | None:
+        """d(residuals, raveled sample by sample)/d(fitted parameters)."""
+        if self.design is not None or self.tau is None:
+            return self.design
+        n, d = self.residuals.shape
+        X = np.column_stack([np.ones(n), self.tau, self.tau * self.tau])
+        out = np.zeros((n, d, 3 * d))
+        for c in range(d):
+            out[:, c, 3 * c:3 * c + 3] = X
+        return out.reshape(n * d, 3 * d)
 
     @property
     def acceleration(self) -> tuple[float, ...]:
@@ -92,18 +103,14 @@ def fit_quadratic(tau: np.ndarray, pos: np.ndarray, index: np.ndarray,
     coordinate with its own residual variance, or ``noise^2 (X^T X)^-1`` when known."""
     X = np.column_stack([np.ones_like(tau), tau, tau * tau])
     coef, *_ = np.linalg.lstsq(X, pos, rcond=None)
+    xtx_inv = np.linalg.inv(X.T @ X)
     resid = pos - X @ coef
     dof = tau.size - 3
     s2 = np.sum(resid * resid, axis=0) / dof if noise is None else np.full(pos.shape[1],
                                                                              noise**2)
-    xtx_inv = np.linalg.inv(X.T @ X)
-    d = pos.shape[1]
-    design = np.zeros((tau.size, d, 3 * d))
-    for c in range(d):
-        design[:, c, 3 * c:3 * c + 3] = X
     return Flight(index=index, model="quadratic", params=coef.T.ravel(),
                   cov=block_diagonal(*(s * xtx_inv for s in s2)), residuals=resid,
-                  dof=pos.size - coef.size, tau=tau, design=design.reshape(tau.size * d, -1))
+                  dof=pos.size - coef.size, tau=tau)
 
 
 @dataclass(frozen=True)
@@ -332,7 +339,8 @@ def trend_test(flight: Flight, noise: float | None) -> float:
     residual variance, a chi-square test with a stated noise). A smooth change of the
     acceleration along the flight (drag or lift the model lacks, or has wrong) shows first as
     such a term, and it is what biases the velocities at the impact."""
-    if flight.tau is None or flight.design is None:
+    J = flight.jacobian()
+    if flight.tau is None or J is None:
         return 1.0
     n, d = flight.residuals.shape
     scale = float(np.max(np.abs(flight.tau))) or 1.0
@@ -340,7 +348,6 @@ def trend_test(flight: Flight, noise: float | None) -> float:
     for c in range(d):
         cube[:, c, c] = (flight.tau / scale) ** 3
     Z = cube.reshape(n * d, d)
-    J = flight.design
     with np.errstate(all="ignore"):
         Zp = Z - J @ np.linalg.lstsq(J, Z, rcond=None)[0]
         e = flight.residuals.ravel()
@@ -361,10 +368,10 @@ def sample_outlier_p(flight: Flight, i: int) -> float:
     others: its externally studentized residual, ``e_i^T (I - H_ii)^-1 e_i / d`` over the
     leave-one-out residual variance, F with ``(d, dof - d)`` degrees of freedom (``H``: the
     hat matrix of the model's derivatives)."""
-    if flight.design is None:
+    J = flight.jacobian()
+    if J is None:
         return 1.0
     n, d = flight.residuals.shape
-    J = flight.design
     e = flight.residuals[i]
     with np.errstate(all="ignore"):
         Ji = J[i * d:(i + 1) * d]
