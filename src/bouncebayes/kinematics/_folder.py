@@ -212,6 +212,9 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
     Raises:
         InputFileError: no bounce of the folder gave kinematics (nothing is written).
     """
+    if Path(out).is_dir():  # before the work, not after it
+        raise InputFileError(out, "is a folder; expected the name of the trial table to "
+                                  "write, e.g. trials.csv")
     s = experiment.trajectories
     ball = experiment.ball
     k, k_max = ball_drag(ball)
