@@ -229,7 +229,7 @@ def test_synth_is_reproducible_and_its_truth_is_the_model(tmp_path):
     e = with_contact(extra="[synth]\nmu_sd = 0.01\neta_sd = 0.1\n")
     a, b = synthesize(e, seed=7, n=6), synthesize(e, seed=7, n=6)
     np.testing.assert_array_equal(a.trials.rebound_speed, b.trials.rebound_speed)
-    assert all(np.array_equal(x, y) for x, y in zip(a.trajectories, b.trajectories))
+    assert all(np.array_equal(x, y) for x, y in zip(a.trajectories, b.trajectories, strict=True))
     assert not np.array_equal(a.trials.rebound_speed, synthesize(e, seed=8, n=6).trials
                               .rebound_speed)
     per = a.truth["per_bounce"]
@@ -245,7 +245,9 @@ def test_synth_is_reproducible_and_its_truth_is_the_model(tmp_path):
     assert truth["seed"] == 7 and truth["population"] == {"mu": 0.16, "eta": 1.35}
     files = sorted(paths["trajectories"].glob("*.csv"))
     assert [f.stem for f in files] == list(a.trials.labels)
-    assert files[0].read_text().startswith("t,x,y\n0,")
+    text = files[0].read_text()  # the one trajectory writer: provenance comment, header, rows
+    rows = [line for line in text.splitlines() if not line.startswith("#")]
+    assert text.startswith("# provenance: ") and rows[0] == "t,x,y" and rows[1].startswith("0.0,")
 
 
 def test_synth_trajectory_is_ballistic_with_the_recorded_incidence():
@@ -305,3 +307,147 @@ def test_closed_form_prior_densities_equal_scipy(prior):
     x = np.array([-2.0, -0.5, 0.0, 1e-4, 0.1, 0.3, 0.5, 1.0, 2.5, 20.0])
     with np.errstate(divide="ignore"):
         np.testing.assert_allclose(prior.logpdf(x), prior.dist.logpdf(x), rtol=1e-12)
+
+
+# --- one trial-table format: schema, writer, reader ----------------------------------------
+
+def test_trial_table_reference_is_generated_from_the_schema():
+    """docs/trial-table.md must be regenerated when the schema changes:
+    python -c "from bouncebayes.data import trial_table_reference as r; \
+open('docs/trial-table.md', 'w').write(r())" """
+    from bouncebayes.data import trial_table_reference
+
+    assert (ROOT / "docs" / "trial-table.md").read_text() == trial_table_reference()
+
+
+def test_trial_table_writer_stamps_provenance_and_round_trips_every_column(tmp_path, experiment):
+    from bouncebayes.data import make_trials
+
+    trials = make_trials(experiment, rebound_speed=[2.5, 2.6], rebound_angle=[58.0, -1.5],
+                         incidence_speed=[3.0, 3.1], incidence_angle=[60.0, 0.0],
+                         incidence_spin=[-12.5, 40.0],
+                         se={"rebound_speed": [0.01, 0.02], "incidence_spin": [1.0, np.nan]},
+                         scale_rel_sd=[0.004, 0.004], labels=["#1 a,b", "b.csv#2"])
+    path = write_trials(tmp_path / "t.csv", trials, provenance={"seed": 3, "inputs": ["x"]})
+    lines = path.read_text().splitlines()
+    assert lines[0] == '# provenance: {"seed":3,"inputs":["x"]}'
+    assert lines[1] == ("trial,rebound_speed,rebound_angle,incidence_speed,incidence_angle,"
+                        "incidence_spin,rebound_speed_se,incidence_spin_se,scale_rel_sd")
+    assert lines[2].startswith('"#1 a,b",2.5,58.0,')  # a label that would read as a comment
+    back = load_trials(path, experiment)
+    assert back.labels == ("#1 a,b", "b.csv#2") and back.provenance == {"seed": 3,
+                                                                         "inputs": ["x"]}
+    assert back.measured == {"incidence_speed", "incidence_angle", "incidence_spin"}
+    for col in ("rebound_speed", "rebound_angle", "incidence_speed", "incidence_angle",
+                "incidence_spin", "scale_rel_sd"):
+        np.testing.assert_array_equal(back.column(col), trials.column(col))
+    np.testing.assert_array_equal(back.se["incidence_spin"], [1.0, np.nan])  # empty cell
+    assert np.isnan(back.se["rebound_angle"]).all()
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"rebound_speed": [2.5, np.nan]}, r"trial '2', `rebound_speed`: must be a finite number > 0"),
+    ({"incidence_angle": [95.0, 60.0]}, r"trial '1', `incidence_angle`: must be a finite number "
+                                        r"in \[0, 90\) deg; got 95.0"),
+    ({"se": {"rebound_angle": [-0.1, 0.1]}}, r"trial '1', `rebound_angle_se`: must be a finite "
+                                            r"number >= 0 deg"),
+    ({"labels": ["a", 'b"c']}, r"trial 2: a label must be one line"),
+])
+def test_trial_table_writer_refuses_what_the_reader_rejects(tmp_path, experiment, kwargs,
+                                                            match):
+    from bouncebayes.data import make_trials
+
+    args = {"rebound_speed": [2.5, 2.6], "rebound_angle": [58.0, 59.0],
+            "incidence_angle": [60.0, 60.0]} | kwargs
+    with pytest.raises(ValueError, match=match):
+        write_trials(tmp_path / "t.csv", make_trials(experiment, **args))
+    assert not (tmp_path / "t.csv").exists()
+
+
+def test_trial_table_writer_and_reader_name_a_folder(tmp_path, experiment):
+    campaign = synthesize(with_contact(), seed=4, n=2)
+    with pytest.raises(InputFileError, match="is a folder; expected the name of the trial "
+                                             "table to write"):
+        write_trials(tmp_path, campaign.trials)
+    with pytest.raises(InputFileError, match="is a folder; expected a trial table"):
+        load_trials(tmp_path, experiment)
+    with pytest.raises(TypeError, match="`provenance` must be JSON-serialisable"):
+        write_trials(tmp_path / "t.csv", campaign.trials, provenance={"x": object()})
+
+
+def test_old_tables_with_a_file_label_still_read(tmp_path, experiment):
+    t = load_trials(write(tmp_path, "file,rebound_speed,rebound_angle\nb1.csv,2.5,58\n"),
+                    experiment)
+    assert t.labels == ("b1.csv",) and np.isnan(t.scale_rel_sd).all()
+
+
+# --- one trajectory format: writer and reader ----------------------------------------------
+
+def test_trajectory_writer_and_reader_round_trip_with_quality_and_provenance(tmp_path):
+    from bouncebayes.data import read_trajectory_table, write_trajectory
+
+    t = np.arange(6) * 1e-3
+    x, y, z = 0.1 + t, 0.05 - t, np.full(6, 0.01)
+    quality = {"residual": [1.5, 2.0, np.nan, 2.5, 3.0, 1.0],
+               "visible": [1, 1, 1, 0.5, 1, 1], "flag": [0, 0, 0, 1, 0, 0]}
+    path = write_trajectory(tmp_path / "a.csv", t, x, y, z, quality=quality,
+                            provenance={"stage": "track"})
+    text = path.read_text().splitlines()
+    assert text[0] == '# provenance: {"stage":"track"}'
+    assert text[1] == "t,x,y,z,residual,visible,flag"
+    assert text[4].split(",")[4] == ""  # NaN residual: an empty cell
+    table = read_trajectory_table(path)
+    keep = [0, 1, 2, 4, 5]  # the flagged frame (line 6) is left out and said so
+    np.testing.assert_array_equal(table.columns["x"], x[keep])  # exact: repr round-trips
+    np.testing.assert_array_equal(table.columns["t"], t[keep])
+    assert np.isnan(table.columns["residual"][2]) and table.n_flagged == 1
+    assert table.notes == ("1 row(s) flagged by the tracker (flag = 1) left out (line 6)",)
+    assert table.provenance == {"stage": "track"}
+    assert list(table.lines) == [3, 4, 5, 7, 8]
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"x": [0.0, np.inf]}, r"`x` must be finite \(write tracked frames only\); got inf at "
+                           r"index 1"),
+    ({"y": [0.0]}, r"trajectory columns must be 1-D and of one length"),
+    ({"quality": {"flag": [0, 2]}}, r"`quality\['flag'\]` must be 0 or 1; got 2.0 at index 1"),
+    ({"quality": {"visible": [0.5, 1.5]}}, r"`quality\['visible'\]` must be in \[0, 1\]"),
+    ({"quality": {"blur": [0, 0]}}, r"`quality` has an unknown column 'blur'; allowed: "
+                                    r"residual, visible, flag"),
+])
+def test_trajectory_writer_refuses_bad_columns(tmp_path, kwargs, match):
+    from bouncebayes.data import write_trajectory
+
+    args = {"t": [0.0, 0.001], "x": [0.0, 0.001], "y": [0.1, 0.1]} | kwargs
+    quality = args.pop("quality", None)
+    with pytest.raises(ValueError, match=match):
+        write_trajectory(tmp_path / "a.csv", quality=quality, **args)
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("t,x,y,flag\n0,0,0,2\n", r"a.csv, line 2, `flag`: must be 0 or 1; got '2'"),
+    ("t,x,y,visible\n0,0,0,-0.1\n", r"a.csv, line 2, `visible`: must be in \[0, 1\]"),
+])
+def test_trajectory_reader_checks_the_quality_columns(tmp_path, text, match):
+    from bouncebayes.data import read_trajectory_table
+
+    (tmp_path / "a.csv").write_text(text)
+    with pytest.raises(InputFileError, match=match):
+        read_trajectory_table(tmp_path / "a.csv")
+
+
+@pytest.mark.parametrize(("sidecar", "match"), [
+    ("{not json", r"a.track.json: not a readable JSON file"),
+    ('{"calibration": {"relative_sd": -1}}',
+     r"a.track.json, `calibration.relative_sd`: must be a finite number >= 0; got -1"),
+    ('{"surface": 3}', r"a.track.json, `surface`: must be a JSON object; got 3"),
+])
+def test_track_sidecar_errors_name_the_key(tmp_path, sidecar, match):
+    from bouncebayes.data import read_track_sidecar
+
+    (tmp_path / "a.track.json").write_text(sidecar)
+    with pytest.raises(InputFileError, match=match):
+        read_track_sidecar(tmp_path / "a.csv")
+    (tmp_path / "a.track.json").write_text('{"surface": {"angle_sd_deg": 0.25}}')
+    got = read_track_sidecar(tmp_path / "a.csv")
+    assert got.surface_angle_sd_deg == 0.25 and got.scale_rel_sd is None

@@ -1,4 +1,5 @@
-"""Experiment description (TOML), priors, and trial tables (CSV)."""
+"""Experiment description (TOML), priors, and the file formats: trial tables and trajectories
+(CSV), each with one schema, one writer and one reader."""
 
 from ._experiment import Experiment as Experiment
 from ._experiment import Incidence as Incidence
@@ -11,10 +12,24 @@ from ._priors import Prior as Prior
 from ._priors import Uniform as Uniform
 from ._schema import PARAMETERS as PARAMETERS
 from ._schema import SECTIONS as SECTIONS
+from ._comment import PROVENANCE_PREFIX as PROVENANCE_PREFIX
+from ._comment import parse_provenance as parse_provenance
+from ._comment import provenance_comment as provenance_comment
+from ._trials import LABEL_COLUMNS as LABEL_COLUMNS
+from ._trials import MEASURED as MEASURED
+from ._trials import SYSTEMATIC as SYSTEMATIC
 from ._trials import Trials as Trials
 from ._trials import load_trials as load_trials
 from ._trials import make_trials as make_trials
+from ._trials import trial_table_reference as trial_table_reference
 from ._trials import write_trials as write_trials
+from ._trajectory import QUALITY_COLUMNS as QUALITY_COLUMNS
+from ._trajectory import TrackSidecar as TrackSidecar
+from ._trajectory import TrajectoryTable as TrajectoryTable
+from ._trajectory import read_track_sidecar as read_track_sidecar
+from ._trajectory import read_trajectory_table as read_trajectory_table
+from ._trajectory import sidecar_path as sidecar_path
+from ._trajectory import write_trajectory as write_trajectory
 from ._synth import Campaign as Campaign
 from ._synth import SynthesisError as SynthesisError
 from ._synth import synthesize as synthesize

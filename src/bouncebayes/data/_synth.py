@@ -10,9 +10,10 @@ import numpy as np
 from scipy import stats
 
 from .._version import __version__
-from .._io import write_json, write_text
+from .._io import write_json
 from ..model import simulate, simulate_history
 from ._experiment import Experiment
+from ._trajectory import write_trajectory
 from ._trials import Trials, make_trials, write_trials
 
 
@@ -132,16 +133,22 @@ def _position(h, t, experiment: Experiment):
 
 def write_campaign(campaign: Campaign, out: str | os.PathLike, *,
                    trajectories: bool = True) -> dict[str, Path]:
-    """Write ``trials.csv``, ``truth.json`` and ``trajectories/bounce_NNN.csv`` under ``out``."""
+    """Write ``trials.csv``, ``truth.json`` and ``trajectories/bounce_NNN.csv`` under ``out``.
+
+    The table and every trajectory carry a provenance comment: the package version, the seed
+    and the experiment file with its SHA-256 (the truth is in ``truth.json``).
+    """
     out = Path(out)
-    paths = {"trials": write_trials(out / "trials.csv", campaign.trials,
-                                    header_comment=f"synthetic campaign, seed {campaign.seed}; "
-                                                   f"the truth is in truth.json"),
-             "truth": write_json(out / "truth.json", campaign.truth)}
+    truth = campaign.truth
+    provenance = {"bouncebayes_version": truth["bouncebayes_version"], "stage": "synth",
+                  "seed": campaign.seed, "experiment": truth["experiment"],
+                  "experiment_sha256": truth["experiment_sha256"], "truth": "truth.json"}
+    paths = {"trials": write_trials(out / "trials.csv", campaign.trials, provenance=provenance),
+             "truth": write_json(out / "truth.json", truth)}
     if trajectories:
         folder = out / "trajectories"
         for label, traj in zip(campaign.trials.labels, campaign.trajectories, strict=True):
-            rows = "\n".join(f"{t:.9g},{x:.9g},{y:.9g}" for t, x, y in traj)
-            write_text(folder / f"{label}.csv", "t,x,y\n" + rows + "\n")
+            write_trajectory(folder / f"{label}.csv", *traj.T,
+                             provenance=provenance | {"trial": label, "truth": "../truth.json"})
         paths["trajectories"] = folder
     return paths

@@ -1,107 +1,136 @@
-"""Fitting one bounce: impact detection, free-flight segments, crossing, delta-method errors."""
+"""Fitting the bounces of a trajectory: impact detection, free flights bounded by the
+neighbouring impacts, crossing, delta-method errors, quality gates."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Literal, get_args
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
-from scipy.linalg import block_diag
 from scipy.signal import find_peaks
 
-from .._validate import check_choice
-from ._drag import _drag_model, _fit_drag
+from ._config import FitConfig
+from ._flight import Flight, fit_drag, fit_quadratic, sample_outlier_p
+from ._gates import apply_gates
+from ._observe import Observation, observe
 from ._read import Trajectory
-from ._result import Kinematics, TrajectoryError, _observables, _Segment
+from ._result import Kinematics, TrajectoryError
 
-Drag = Literal["none", "quadratic"]  # "none" (or None): constant acceleration
-DRAG_MODELS: tuple[str, ...] = get_args(Drag)
 # A bounce is a local minimum of y that rises on both sides by more than this many noise
 # standard deviations (noise estimated from second differences): a robust form of "dy/dt changes
 # sign from - to +" that ignores the sign flips noise causes where |dy| per frame ~ noise.
 PROMINENCE_IN_NOISE_SD = 12.0
+_SPLIT_ITERATIONS = 5
+MAX_EXTRA_GUARD = 2  # samples next to an impact that may be left out beyond `contact_guard`
+SPLIT_POINTS = 10  # samples on each side whose parabolas place the impact for the split
 
 
-def fit_kinematics(trajectory: Trajectory, *, min_points: int = 5, contact_guard: int = 1,
-                   drag: Drag | None = None) -> Kinematics:
+@dataclass(frozen=True)
+class _Split:
+    """One bounce's two free flights (sample indices) and the crossing of their parabolas."""
+
+    low: int  # lowest sample: the reference time of both flights
+    before: np.ndarray
+    after: np.ndarray
+    tau: float  # crossing time from t[low]
+
+
+def fit_kinematics(trajectory: Trajectory, *, config: FitConfig | None = None,
+                   **options) -> Kinematics:
     """Incidence and rebound kinematics of the single bounce in ``trajectory``.
 
-    1. Impact detection: the bounce is the one local minimum of ``y`` where ``dy/dt`` changes sign
-       from - to + and ``y`` rises by more than 12 noise standard deviations on both sides (noise
-       from second differences, robustly); none -> ``"no bounce"``, more -> ``"several bounces"``.
-    2. Free flight: the samples before and after the impact, leaving out the ``contact_guard``
-       samples nearest the impact on each side (the ball may touch the plane for one or two
-       frames at 1 kHz; use ``contact_guard >= ceil(contact time x rate / 2)``). Fewer than
-       ``min_points`` on a side -> ``"too few points"``. The split is re-made at the fitted
-       impact time until it no longer changes.
-    3. Each segment is fitted with constant acceleration, ``r(t) = r0 + v0 t + a t^2 / 2``, by
-       ordinary least squares per coordinate (acceleration free: the camera may be tilted).
-       ``drag="quadratic"`` (default ``None`` or ``"none"``: no drag) fits
-       ``r'' = a - k |v| v`` instead (``scipy.optimize.least_squares`` on an RK4 solution; one
-       ``k`` and one noise level per segment). Drag matters for light, large balls:
-       ``k = rho C_d A / (2 m)`` is ~0.14 /m for a table-tennis ball (``k v^2`` ~ 3.5 m/s^2 at
-       5 m/s), ~0.01 /m for a tennis ball, ~1e-3 /m for a steel ball. What biases the
-       constant-acceleration fit is the *change* of the drag along a segment, so it grows with
-       the segment's duration: for a table-tennis ball at 5 m/s filmed at 1 kHz with 0.2 mm
-       noise, the constant-acceleration rebound speed is biased by ~0.7 standard errors with
-       0.05 s segments, ~4 with 0.1 s and ~30 with 0.2 s; the drag fit removes the bias at the
-       price of ~2.5x larger errors (tests/test_kinematics.py, ``test_quadratic_drag_*``).
-    4. Impact time ``t_i``: the crossing of the two fitted ``y(t)`` nearest the lowest sample.
-       Incidence = velocity of the pre-impact fit at ``t_i``, rebound = post-impact fit at
-       ``t_i``; speed ``|v|``, angle ``atan2(v_x, |v_y|)`` (incident ``v_y < 0``, rebound
-       ``v_y > 0``). If the incident ``v_x`` comes out negative (near head-on, where the file's
-       direction was ambiguous) both angles are mirrored and ``flipped_x`` toggled.
-    5. Standard errors: coefficient covariance ``s^2 (X^T X)^-1`` per coordinate and segment
-       (``s^2`` = residual variance, ``n - 3`` degrees of freedom; with drag ``s^2 (J^T J)^-1``),
-       propagated by the delta method through the whole map coefficients -> (``t_i``, velocities,
-       speed, angle), so the uncertainty of ``t_i`` is included. With few points the z-scores
-       follow Student's t with ``n - 3`` degrees of freedom rather than a normal.
-
-    3-D (a ``z`` column): (x, z) span the plane. The plane of incidence contains the normal and the
-    fitted incident in-plane velocity; incidence and rebound are its projections onto that plane
-    (the incident velocity lies in it), and ``lateral_angle`` reports the rebound's out-of-plane
-    part.
+    As :func:`fit_bounces` for a trajectory holding exactly one bounce; ``options``
+    (``min_points``, ``contact_guard``, ``drag``, ...) replace fields of ``config``
+    (:class:`FitConfig`).
 
     Raises:
-        TrajectoryError: with ``reason`` "no bounce", "several bounces", "too few points",
-            "no crossing" (the fitted parabolas do not cross near the impact) or "bad fit".
-        ValueError, TypeError: bad ``min_points`` (an integer >= 4), ``contact_guard`` (>= 0) or
-            ``drag``.
+        TrajectoryError: "several bounces" (use :func:`fit_bounces`), or why the bounce failed.
+        ValueError, TypeError: a bad option.
     """
-    min_points, contact_guard, drag = _check_fit_options(min_points, contact_guard, drag)
-    t, pos, src = trajectory.t, trajectory.positions(), trajectory.source
-    low = _find_bounce(trajectory)
-    t_ref = float(t[low])
-    pre, post, tau_i = _split_and_fit(trajectory, low, t_ref, min_points, contact_guard)
-    model: Callable[[np.ndarray], np.ndarray]
-    if drag == "quadratic":
-        pre = _fit_drag(src, t[pre.index] - t_ref, pos[pre.index], pre)
-        post = _fit_drag(src, t[post.index] - t_ref, pos[post.index], post)
-        model = _drag_model(pos.shape[1], pre.params.size, tau_i)
-    else:
-        model = _quadratic_model(pos.shape[1])
-    theta = np.concatenate([pre.params, post.params])
-    values, se = _delta_method(model, theta, block_diag(pre.cov, post.cov))
-    _check_directions(src, values, t_ref)
-    return _kinematics(trajectory, values, se, pre, post, t_ref, drag)
+    cfg = FitConfig.from_options(config, **options)
+    lows = find_bounces(trajectory)
+    if lows.size > 1:
+        times = ", ".join(f"{trajectory.t[i]:.6g}" for i in lows)
+        raise TrajectoryError(trajectory.source, f"found {lows.size} bounces (lowest points at "
+                                                 f"t = {times} s); fit_bounces gives one trial "
+                                                 "per bounce", reason="several bounces")
+    (result,) = _fit_all(trajectory, lows, cfg, [0.0])
+    if isinstance(result, TrajectoryError):
+        raise result
+    return result
 
 
-def _check_fit_options(min_points, contact_guard, drag) -> tuple[int, int, str | None]:
-    _check_int("min_points", min_points, 4, "a quadratic fit needs >= 4 points for a residual "
-                                            "variance")
-    _check_int("contact_guard", contact_guard, 0, "samples left out on each side of the impact")
-    if drag is not None:
-        check_choice("drag", drag, DRAG_MODELS)
-    return int(min_points), int(contact_guard), None if drag == "none" else drag
+def fit_bounces(trajectory: Trajectory, *, config: FitConfig | None = None,
+                energy_allowance: float | Sequence[float] = 0.0,
+                **options) -> tuple[Kinematics | TrajectoryError, ...]:
+    """Incidence and rebound kinematics of every bounce in ``trajectory``, in time order.
+
+    1. Impacts: every local minimum of ``y`` where ``dy/dt`` changes sign from - to + and ``y``
+       rises by more than 12 noise standard deviations on both sides (noise from second
+       differences, robustly). None: ``"no bounce"``.
+    2. Free flights: the samples between the neighbouring impacts (the file's ends for the
+       first and last), leaving out ``contact_guard`` samples next to each impact. Fewer than
+       ``min_points`` on a side: ``"too few points"``. The splits are re-made at the fitted
+       impact times until they no longer change.
+    3. Each flight is fitted with constant acceleration, ``r(t) = r0 + v0 t + a t^2 / 2``, by
+       ordinary least squares per coordinate (acceleration free: the camera may be tilted), or
+       with ``drag = "quadratic"``, ``r'' = a - k |v| v`` (bounded least squares from the
+       drag-free fit, ``0 <= k <= drag_k_max``; a flight that cannot tell ``k`` falls back to
+       constant acceleration, said in ``notes``). Drag matters for light, large balls: ``k =
+       rho C_d A / (2 m)`` is ~0.14 /m for a table-tennis ball (``k v^2`` ~ 3.5 m/s^2 at 5 m/s).
+       What biases the constant-acceleration fit is the *change* of the drag along a flight,
+       so it grows with its duration: for a table-tennis ball at 5 m/s filmed at 1 kHz with
+       0.2 mm noise, the rebound speed is biased by ~0.7 standard errors with 0.05 s flights,
+       ~4 with 0.1 s and ~30 with 0.2 s; the drag fit removes the bias at the price of ~2.5x
+       larger errors (tests/test_kinematics.py, ``test_quadratic_drag_*``).
+    4. Impact time ``t_i``: the crossing of the two fitted ``y(t)`` nearest the lowest sample.
+       Incidence = velocity of the flight before at ``t_i``, rebound = flight after at ``t_i``;
+       speed ``|v|``, angle ``atan2(v_x, |v_y|)``. If the incident ``v_x`` comes out negative
+       (near head-on) both angles are mirrored and ``flipped_x`` toggled.
+    5. Standard errors: the flights' parameter covariances (residual variance, or the stated
+       ``position_noise``), plus the tracker's surface-angle uncertainty, propagated by the
+       delta method (exact derivatives) to ``t_i``, the velocities, speeds and angles.
+    6. Gates (thresholds in :class:`FitConfig`): residual levels consistent between the two
+       flights (or with the stated noise) and free of smooth patterns; finite standard errors
+       below 25 % of a speed and 10 deg; no energy gain beyond 3 standard errors (plus
+       ``energy_allowance``, m^2/s^2, what spin could add to ``v_out^2``; one value or one
+       per bounce); the impact between the flights.
+
+    3-D (a ``z`` column): (x, z) span the plane; incidence and rebound are projected onto the
+    plane of incidence, and ``lateral_angle`` reports the rebound's out-of-plane part.
+
+    Returns one :class:`Kinematics` or :class:`TrajectoryError` per bounce; a bounce's error
+    names ``<file>#<k>`` when the file holds several.
+
+    Raises:
+        TrajectoryError: "no bounce".
+        ValueError, TypeError: a bad option.
+    """
+    cfg = FitConfig.from_options(config, **options)
+    lows = find_bounces(trajectory)
+    allowance = np.broadcast_to(np.asarray(energy_allowance, dtype=float), lows.shape)
+    return _fit_all(trajectory, lows, cfg, list(allowance))
 
 
-def _check_int(name: str, value, low: int, why: str) -> None:
-    message = f"`{name}` must be an integer >= {low} ({why}); got {value!r}"
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(message)
-    if value < low:
-        raise ValueError(message)
+def _fit_all(traj: Trajectory, lows: np.ndarray, cfg: FitConfig,
+             allowance: list[float]) -> tuple[Kinematics | TrajectoryError, ...]:
+    splits = _split(traj, lows, cfg)
+    out: list[Kinematics | TrajectoryError] = []
+    for k, split in enumerate(splits):
+        try:
+            if isinstance(split, TrajectoryError):
+                raise split
+            out.append(_fit_bounce(traj, split, cfg, allowance[k], k, lows.size))
+        except TrajectoryError as exc:
+            out.append(exc)
+    return tuple(out)
+
+
+def bounce_name(traj: Trajectory, k: int, n: int) -> str:
+    """``<source>`` for a single bounce, ``<source>#<k+1>`` for bounce ``k`` of several."""
+    return traj.source if n == 1 else f"{traj.source}#{k + 1}"
 
 
 def _noise_sd(y: np.ndarray) -> float:
@@ -110,16 +139,15 @@ def _noise_sd(y: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
 
 
-def _find_bounce(traj: Trajectory) -> int:
-    """Index of the lowest sample of the single clear bounce."""
+def find_bounces(traj: Trajectory) -> np.ndarray:
+    """Indices of the lowest samples of the clear bounces, in time order.
+
+    Raises:
+        TrajectoryError: "no bounce".
+    """
     y, t = traj.y, traj.t
     threshold = max(PROMINENCE_IN_NOISE_SD * _noise_sd(y), 1e-6 * float(np.ptp(y)), 1e-12)
     peaks, _ = find_peaks(-y, prominence=threshold)
-    if peaks.size > 1:
-        times = ", ".join(f"{t[i]:.6g}" for i in peaks)
-        raise TrajectoryError(traj.source, f"found {peaks.size} bounces (lowest points at t = "
-                                           f"{times} s); keep one bounce per file",
-                              reason="several bounces")
     if peaks.size == 0:
         low = int(np.argmin(y))
         where = ("the first sample" if low == 0 else "the last sample (does the file end at the "
@@ -128,51 +156,66 @@ def _find_bounce(traj: Trajectory) -> int:
         raise TrajectoryError(traj.source, "the normal position y has no clear minimum where "
                                            f"dy/dt changes sign from - to +; its lowest point is "
                                            f"{where}. Check that y points away from the plane "
-                                           "(up) and that the file holds one whole bounce",
+                                           "(up) and that the file holds a whole bounce",
                               reason="no bounce")
-    return int(peaks[0])
+    return peaks
 
 
-def _split_and_fit(traj: Trajectory, low: int, t_ref: float, min_points: int, guard: int
-                   ) -> tuple[_Segment, _Segment, float]:
-    """Split into free-flight segments around the impact, refit until the split is stable."""
-    t, pos = traj.t, traj.positions()
-    t_split, last = t_ref, None
-    for _ in range(5):
-        before = np.flatnonzero(t < t_split)[: max(0, np.sum(t < t_split) - guard)]
-        after = np.flatnonzero(t > t_split)[guard:]
-        if last is not None and np.array_equal(before, last[0]) and np.array_equal(after,
-                                                                                   last[1]):
+def _split(traj: Trajectory, lows: np.ndarray, cfg: FitConfig) -> list[_Split | TrajectoryError]:
+    """Free flights of every bounce, bounded by the neighbouring impacts; re-split at the
+    fitted crossings until stable."""
+    impacts = traj.t[lows].astype(float)
+    splits: list[_Split | TrajectoryError] = []
+    for _ in range(_SPLIT_ITERATIONS):
+        new = [_split_one(traj, lows, impacts, k, cfg) for k in range(lows.size)]
+        stable = len(new) == len(splits) and all(
+            isinstance(a, _Split) and isinstance(b, _Split) and np.array_equal(a.before, b.before)
+            and np.array_equal(a.after, b.after) or (isinstance(a, TrajectoryError)
+                                                     and isinstance(b, TrajectoryError))
+            for a, b in zip(new, splits, strict=True))
+        splits = new
+        if stable:
             break
-        for side, idx in (("before", before), ("after", after)):
-            if idx.size < min_points:
-                raise TrajectoryError(traj.source, f"too few points {side} the impact (got "
-                                                   f"{idx.size}, need {min_points}) after leaving "
-                                                   f"out {guard} sample(s) next to it "
-                                                   "(`contact_guard`); record more of the flight "
-                                                   "or lower `min_points`",
-                                      reason="too few points")
-        pre, post = (_fit_quadratic(t[i] - t_ref, pos[i], i) for i in (before, after))
-        tau_i = _crossing(pre.params.reshape(-1, 3)[1], post.params.reshape(-1, 3)[1])
-        if tau_i is None or not t[0] <= t_ref + tau_i <= t[-1]:
-            raise TrajectoryError(traj.source, "the fitted y(t) before and after the impact do "
-                                               "not cross within the record; is the bounce "
-                                               "tracked on both sides?", reason="no crossing")
-        t_split, last = t_ref + tau_i, (before, after)
-    return pre, post, tau_i
+        impacts = np.array([traj.t[s.low] + s.tau if isinstance(s, _Split) else impacts[k]
+                            for k, s in enumerate(splits)])
+    return splits
 
 
-def _fit_quadratic(tau: np.ndarray, pos: np.ndarray, index: np.ndarray) -> _Segment:
-    """OLS of each coordinate on (1, tau, tau^2); params per coordinate: r0, v0, a/2."""
-    X = np.column_stack([np.ones_like(tau), tau, tau * tau])
-    coef, *_ = np.linalg.lstsq(X, pos, rcond=None)
-    resid = pos - X @ coef
-    rss = np.sum(resid * resid, axis=0)
-    s2 = rss / (tau.size - 3)
-    xtx_inv = np.linalg.inv(X.T @ X)
-    cov = block_diag(*(s * xtx_inv for s in s2))
-    return _Segment(index=index, params=coef.T.ravel(), cov=cov, rss=float(rss.sum()),
-                    n_resid=resid.size, acceleration=tuple(float(a) for a in 2 * coef[2]))
+def _split_one(traj: Trajectory, lows: np.ndarray, impacts: np.ndarray, k: int,
+               cfg: FitConfig) -> _Split | TrajectoryError:
+    t, guard, n = traj.t, cfg.contact_guard, lows.size
+    name = bounce_name(traj, k, n)
+    prev = impacts[k - 1] if k > 0 else -np.inf
+    nxt = impacts[k + 1] if k < n - 1 else np.inf
+    before = _between(t, prev, impacts[k], guard if k > 0 else 0, guard)
+    after = _between(t, impacts[k], nxt, guard, guard if k < n - 1 else 0)
+    if cfg.window is not None:
+        before = before[t[before] >= impacts[k] - cfg.window]
+        after = after[t[after] <= impacts[k] + cfg.window]
+    for side, idx in (("before", before), ("after", after)):
+        if idx.size < cfg.min_points:
+            return TrajectoryError(name, f"too few points {side} the impact (got {idx.size}, "
+                                         f"need {cfg.min_points}) after leaving out "
+                                         f"{guard} sample(s) next to it (`contact_guard`); "
+                                         "record more of the flight or lower `min_points`",
+                                   reason="too few points")
+    t_ref, pos = float(t[lows[k]]), traj.positions()
+    # parabolas through the samples next to the impact: a long flight bends under drag and
+    # lift, and its whole-flight parabola would put the impact in the wrong place
+    near = (before[-SPLIT_POINTS:], after[:SPLIT_POINTS])
+    pre, post = (fit_quadratic(t[i] - t_ref, pos[i], i, None) for i in near)
+    tau = _crossing(pre.params.reshape(-1, 3)[1], post.params.reshape(-1, 3)[1])
+    if tau is None or not t[0] <= t_ref + tau <= t[-1]:
+        return TrajectoryError(name, "the fitted y(t) before and after the impact do not cross "
+                                     "within the record; is the bounce tracked on both sides?",
+                               reason="no crossing")
+    return _Split(int(lows[k]), before, after, tau)
+
+
+def _between(t: np.ndarray, low: float, high: float, guard_low: int,
+             guard_high: int) -> np.ndarray:
+    idx = np.flatnonzero((t > low) & (t < high))
+    return idx[guard_low: max(guard_low, idx.size - guard_high)]
 
 
 def _crossing(p: np.ndarray, q: np.ndarray) -> float | None:
@@ -188,61 +231,92 @@ def _crossing(p: np.ndarray, q: np.ndarray) -> float | None:
     return min(roots, key=abs)
 
 
-def _quadratic_model(d: int) -> Callable[[np.ndarray], np.ndarray]:
-    """theta (both segments' r0, v0, a/2 per coordinate) -> observables + [tau_i, vy_in, vy_out]."""
-    def model(theta: np.ndarray) -> np.ndarray:
-        pre, post = theta[: 3 * d].reshape(d, 3), theta[3 * d:].reshape(d, 3)
-        tau = _crossing(pre[1], post[1])
-        tau = math.nan if tau is None else tau
-        v_in, v_out = pre[:, 1] + 2 * pre[:, 2] * tau, post[:, 1] + 2 * post[:, 2] * tau
-        return np.array([*_observables(v_in, v_out), tau, v_in[1], v_out[1]])
-    return model
+def _fit_flights(traj: Trajectory, split: _Split, cfg: FitConfig) -> tuple[Flight, Flight]:
+    t_ref = float(traj.t[split.low])
+    return (_fit_side(traj, split.before, t_ref, cfg, True),
+            _fit_side(traj, split.after, t_ref, cfg, False))
 
 
-def _delta_method(f: Callable[[np.ndarray], np.ndarray], theta: np.ndarray, cov: np.ndarray,
-                  rel_step: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
-    """f(theta) and its standard errors sqrt(diag(J cov J^T)), J by central differences with
-    steps of ``rel_step`` standard deviations of each parameter."""
-    f0 = f(theta)
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    jac = np.zeros((f0.size, theta.size))
-    for j in np.flatnonzero(sd > 0):
-        step = np.zeros_like(theta)
-        step[j] = rel_step * sd[j]
-        jac[:, j] = (f(theta + step) - f(theta - step)) / (2 * step[j])
-    var = np.einsum("ij,jk,ik->i", jac, cov, jac)
-    return f0, np.sqrt(np.clip(var, 0.0, None))
+def _fit_side(traj: Trajectory, idx: np.ndarray, t_ref: float, cfg: FitConfig,
+              before: bool) -> Flight:
+    """One flight fitted with the configured model. A sample next to the impact that is off
+    the flight (p below ``cfg.p_min``: in contact, or blurred by the impact) is left out and
+    the flight refitted, up to ``MAX_EXTRA_GUARD`` samples, said in the flight's note."""
+    dropped = 0
+    while True:
+        tau, pos = traj.t[idx] - t_ref, traj.positions()[idx]
+        flight = fit_quadratic(tau, pos, idx, cfg.position_noise)
+        if cfg.fit_drag:
+            flight = fit_drag(tau, pos, flight, cfg.aero(), cfg.position_noise)
+        end = -1 if before else 0
+        if (dropped == MAX_EXTRA_GUARD or idx.size <= cfg.min_points
+                or sample_outlier_p(flight, end % idx.size) >= cfg.p_min):
+            break
+        idx = idx[:-1] if before else idx[1:]
+        dropped += 1
+    if dropped:
+        note = (f"{dropped} more sample(s) next to the impact left out (off the flight beyond "
+                f"p = {cfg.p_min:g}: in contact?)")
+        flight = replace(flight, note=note if flight.note is None else f"{flight.note}; {note}")
+    return flight
 
 
-def _check_directions(source: str, values: np.ndarray, t_ref: float) -> None:
-    tau, vy_in, vy_out = values[-3:]
-    if not (np.isfinite(values).all() and vy_in < 0 < vy_out):
-        raise TrajectoryError(source, f"at the fitted impact (t = {t_ref + tau:.6g} s) the normal "
-                                      f"velocity is {vy_in:.4g} m/s before and {vy_out:.4g} m/s "
-                                      "after; a bounce needs v_y < 0 before and > 0 after",
-                              reason="bad fit")
+def _fit_bounce(traj: Trajectory, split: _Split, cfg: FitConfig, allowance: float, k: int,
+                n: int) -> Kinematics:
+    name = bounce_name(traj, k, n)
+    pre, post = _fit_flights(traj, split, cfg)
+    with np.errstate(all="ignore"):
+        obs = observe(pre, post, split.tau, traj.surface_angle_sd_deg)
+    if obs is None:
+        raise TrajectoryError(name, "the fitted flights before and after the impact do not "
+                                    "cross near the lowest sample", reason="no crossing")
+    t_ref = float(traj.t[split.low])
+    gates = apply_gates(name, traj, pre, post, obs, t_ref, cfg, allowance)
+    notes = [*traj.notes, *(f"{side}: {f.note}" for side, f in (("flight before", pre),
+                                                                ("flight after", post))
+                            if f.note)]
+    return _kinematics(traj, obs, pre, post, t_ref, cfg, name, k, n, tuple(notes), gates)
 
 
-def _kinematics(traj: Trajectory, values: np.ndarray, se: np.ndarray, pre: _Segment,
-                post: _Segment, t_ref: float, drag: str | None) -> Kinematics:
+def _kinematics(traj: Trajectory, obs: Observation, pre: Flight, post: Flight, t_ref: float,
+                cfg: FitConfig, name: str, k: int, n: int, notes: tuple[str, ...],
+                gates: dict[str, float]) -> Kinematics:
     three_d = traj.z is not None
+    values, se = obs.values, obs.se
     mirror = -1.0 if (not three_d and values[1] < 0) else 1.0  # near head-on, see step 4
 
     def mirrored(a: tuple[float, ...]) -> tuple[float, ...]:
         return (mirror * a[0], *a[1:])
 
-    rms = math.sqrt((pre.rss + post.rss) / (pre.n_resid + post.n_resid))
+    rms = math.sqrt((pre.rss + post.rss) / (pre.residuals.size + post.residuals.size))
     return Kinematics(
         incidence_speed=float(values[0]), incidence_speed_se=float(se[0]),
         incidence_angle=float(mirror * values[1]), incidence_angle_se=float(se[1]),
         rebound_speed=float(values[2]), rebound_speed_se=float(se[2]),
         rebound_angle=float(mirror * values[3]), rebound_angle_se=float(se[3]),
-        impact_time=t_ref + float(values[-3]), impact_time_se=float(se[-3]),
+        impact_time=t_ref + obs.tau, impact_time_se=obs.tau_se,
         n_before=int(pre.index.size), n_after=int(post.index.size), residual_rms=rms,
         acceleration_before=mirrored(pre.acceleration),
         acceleration_after=mirrored(post.acceleration),
         sample_rate_hz=traj.sample_rate_hz, source=traj.source,
         lateral_angle=float(values[4]) if three_d else None,
         lateral_angle_se=float(se[4]) if three_d else None,
-        flipped_x=traj.flipped_x != (mirror < 0), drag=drag,
-        drag_coefficient=(pre.drag_k, post.drag_k) if drag else None)
+        flipped_x=traj.flipped_x != (mirror < 0), drag="quadratic" if cfg.fit_drag else None,
+        drag_coefficient=(_k(pre), _k(post)) if cfg.fit_drag else None,
+        label=Path(name).name, bounce=k + 1, n_bounces=n, notes=notes, gates=gates,
+        scale_rel_sd=traj.scale_rel_sd,
+        impact_acceleration_before=_in_plane(obs.a_in, obs.v_in, mirror),
+        impact_acceleration_after=_in_plane(obs.a_out, obs.v_in, mirror))
+
+
+def _in_plane(a: np.ndarray, v_in: np.ndarray, mirror: float) -> tuple[float, float]:
+    """(along the incident direction in the plane, normal) components of ``a``."""
+    if a.size == 2:
+        return float(mirror * a[0]), float(a[1])
+    h = math.hypot(v_in[0], v_in[2])
+    ex, ez = (v_in[0] / h, v_in[2] / h) if h > 0 else (1.0, 0.0)
+    return float(a[0] * ex + a[2] * ez), float(a[1])
+
+
+def _k(flight: Flight) -> float:
+    return flight.drag_k if flight.drag_k is not None else math.nan

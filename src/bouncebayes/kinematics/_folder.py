@@ -1,70 +1,140 @@
-"""A folder of trajectory files -> kinematics and the trial table; referring them to the contact."""
+"""A folder of trajectory files -> kinematics of every bounce -> the trial table."""
 
 from __future__ import annotations
 
-import csv
+import hashlib
 import math
 import os
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-
-import numpy as np
+from typing import Any
 
 from .._errors import InputFileError
-from .._io import atomic_path
 from .._validate import check_choice, check_scalar
-from ._fit import _check_fit_options, fit_kinematics
+from .._version import __version__
+from ..data import make_trials, write_trials
+from ._config import FitConfig
+from ._contact import refer_to_contact
+from ._fit import find_bounces, fit_bounces
 from ._read import LENGTH_UNITS, LengthUnit, read_trajectory
-from ._result import TRIAL_TABLE_COLUMNS, Kinematics
+from ._result import Kinematics, TrajectoryError
+from ._spin import SPIN_FILE, SpinRow, check_spin_names, read_spin_table, spin_for
+
+# The drag coefficient k = rho C_d pi r^2 / (2 m) of a ball in air: expected with air at
+# 20 degC (1.2 kg/m^3) and a sphere's C_d = 0.47 (Reynolds numbers 1e3-2e5); at most its value
+# for dense air (1.3 kg/m^3, 0 degC at sea level) and C_d = 1 (reached near Re = 100, below any
+# ball of >= 1 cm moving at >= 0.2 m/s). F.M. White, Fluid Mechanics, 7th ed., 2011, fig. 7.16.
+AIR_DENSITY = 1.2  # kg/m^3
+SPHERE_DRAG_COEFFICIENT = 0.47
+AIR_DENSITY_MAX = 1.3  # kg/m^3
+DRAG_COEFFICIENT_MAX = 1.0
+
+
+def ball_drag(ball) -> tuple[float, float]:
+    """Expected and largest drag coefficient ``k = rho C_d pi r^2 / (2 m)`` of a ball (1/m)."""
+    area_per_mass = math.pi * ball.radius**2 / (2 * ball.mass)
+    return (AIR_DENSITY * SPHERE_DRAG_COEFFICIENT * area_per_mass,
+            AIR_DENSITY_MAX * DRAG_COEFFICIENT_MAX * area_per_mass)
 
 
 @dataclass(frozen=True)
 class FolderKinematics:
-    """Kinematics of every usable file of a folder, in file-name order, and why others failed.
+    """Kinematics of every usable bounce of a folder, in file-name order, and why others failed.
 
-    ``failures``: ``(path, message)`` pairs; the message names the file, the line where known,
-    the reason and the remedy.
+    ``failures``: ``(name, message)`` pairs, ``name`` a file or ``<file>#<k>``; the message names
+    the file, the line where known, the reason and the remedy. ``notes``: ``(file, message)``
+    pairs about files that were used (rows merged or left out, drag fallbacks).
+    ``n_files``: files read.
     """
 
     results: tuple[Kinematics, ...]
     failures: tuple[tuple[str, str], ...]
+    notes: tuple[tuple[str, str], ...] = ()
+    n_files: int = 0
 
     def summary(self) -> str:
-        """One line per failure under a count, for a log or the command line."""
-        n = len(self.results) + len(self.failures)
-        head = f"{len(self.results)} of {n} trajectory files gave kinematics"
-        return "\n".join([head, *(f"  skipped: {message}" for _, message in self.failures)])
+        """A count, then one line per note and per failure, for a log or the command line."""
+        used = {k.source for k in self.results}
+        n = max(self.n_files, len(used) + len(self.failures))
+        head = f"{len(used)} of {n} trajectory files gave kinematics ({len(self.results)} trials)"
+        return "\n".join([head, *(f"  note: {name}: {message}" for name, message in self.notes),
+                          *(f"  skipped: {message}" for _, message in self.failures)])
 
 
 def kinematics_from_folder(folder: str | os.PathLike, *,
                            pattern: str | Sequence[str] = ("*.csv", "*.txt"),
                            rotation_deg: float = 0.0, length_unit: LengthUnit = "m",
-                           **fit_kwargs) -> FolderKinematics:
+                           ball=None, spin_bound: float = 0.0, config: FitConfig | None = None,
+                           **options) -> FolderKinematics:
     """Read and fit every file in ``folder`` matching ``pattern`` (not recursive).
 
-    Files are taken in natural file-name order (``b2`` before ``b10``). A file that cannot be
-    read or fitted (:class:`InputFileError`, including :class:`TrajectoryError`) is listed in
+    Files are taken in natural file-name order (``b2`` before ``b10``); ``spin.csv`` is not a
+    trajectory but the measured spins (module ``_spin``: ``file,incidence_spin[,_se]``). A file
+    with several bounces gives one trial per bounce (``<file>#<k>``). A file or bounce that
+    cannot be used (:class:`InputFileError`, including :class:`TrajectoryError`) is listed in
     ``failures`` and the others are still processed. ``rotation_deg`` and ``length_unit`` go to
-    :func:`read_trajectory`, ``fit_kwargs`` (``min_points``, ``contact_guard``, ``drag``) to
-    :func:`fit_kinematics`; they are checked once, before any file is read.
+    :func:`read_trajectory`; ``config`` and ``options`` (``min_points``, ``contact_guard``,
+    ``drag``, ...: :class:`FitConfig`) to :func:`fit_bounces`; they are checked once, before any
+    file is read. ``ball`` (radius, inertia_factor) and the spins allow for spin energy in the
+    energy gate: a rebound may gain ``kappa r^2 w^2`` in ``v^2`` with ``w`` the measured
+    ``|spin| + 3 se``, or ``spin_bound`` (rad/s) where not measured; without ``ball``, none.
 
     Raises:
-        InputFileError: ``folder`` is not a folder or holds no matching file.
+        InputFileError: ``folder`` is not a folder or holds no matching file; a bad spin table.
     """
     check_scalar("rotation_deg", rotation_deg, unit="deg")
     check_choice("length_unit", length_unit, LENGTH_UNITS)
-    _check_fit_options(**{"min_points": 5, "contact_guard": 1, "drag": None, **fit_kwargs})
+    bound = check_scalar("spin_bound", spin_bound, unit="rad/s", low=0.0)
+    cfg = FitConfig.from_options(config, **options)
     files = _matching_files(folder, (pattern,) if isinstance(pattern, str) else tuple(pattern))
-    results, failures = [], []
+    spin_path = Path(folder) / SPIN_FILE
+    spins = read_spin_table(spin_path) if spin_path.is_file() else None
+    if spins is not None:
+        check_spin_names(spin_path, spins, (p.name for p in files))
+    results: list[Kinematics] = []
+    failures: list[tuple[str, str]] = []
+    notes: list[tuple[str, str]] = []
     for path in files:
         try:
             traj = read_trajectory(path, rotation_deg=rotation_deg, length_unit=length_unit)
-            results.append(fit_kinematics(traj, **fit_kwargs))
+            n = find_bounces(traj).size
+            rows: list[SpinRow | None] = (spin_for(spin_path, spins, path.name, n)
+                                          if spins is not None else [None] * n)
+            fits = fit_bounces(traj, config=cfg,
+                               energy_allowance=[_allowance(ball, r, bound) for r in rows])
         except InputFileError as exc:
+            if spins is not None and exc.path == os.fspath(spin_path):
+                raise  # the spin table is wrong, not this file
             failures.append((os.fspath(path), str(exc)))
-    return FolderKinematics(results=tuple(results), failures=tuple(failures))
+            continue
+        notes += [(path.name, note) for note in traj.notes]
+        _collect(fits, rows, spins is not None, results, failures)
+    return FolderKinematics(tuple(results), tuple(failures), tuple(notes), len(files))
+
+
+def _collect(fits, rows: list[SpinRow | None], with_spin: bool, results: list[Kinematics],
+             failures: list[tuple[str, str]]) -> None:
+    """Add one file's bounces: results with their spins, failures with their messages."""
+    for fit, row in zip(fits, rows, strict=True):
+        if isinstance(fit, TrajectoryError):
+            failures.append((fit.path, str(fit)))
+        elif with_spin and row is None:
+            failures.append((fit.label, str(TrajectoryError(
+                fit.label, f"{SPIN_FILE} has no row for this trial; add `{fit.label},<spin>` "
+                           "or remove the file", reason="no spin"))))
+        else:
+            results.append(fit if row is None else replace(
+                fit, incidence_spin=row.spin, incidence_spin_se=row.se))
+
+
+def _allowance(ball, row: SpinRow | None, bound: float) -> float:
+    """What spin energy could add to the rebound's v^2: kappa r^2 w^2 (m^2/s^2)."""
+    if ball is None:
+        return 0.0
+    w = abs(row.spin) + 3 * (row.se or 0.0) if row is not None else bound
+    return float(ball.inertia_factor * ball.radius**2 * w * w)
 
 
 def _matching_files(folder: str | os.PathLike, patterns: tuple[str, ...]) -> list[Path]:
@@ -72,7 +142,7 @@ def _matching_files(folder: str | os.PathLike, patterns: tuple[str, ...]) -> lis
     if not root.is_dir():
         raise InputFileError(root, "no such folder" if not root.exists() else
                              "is a file; expected a folder of trajectory files")
-    files = {p for pat in patterns for p in root.glob(pat) if p.is_file()}
+    files = {p for pat in patterns for p in root.glob(pat) if p.is_file() and p.name != SPIN_FILE}
     if not files:
         raise InputFileError(root, f"no file matches {', '.join(patterns)}; give `pattern` for "
                                    "other names")
@@ -84,91 +154,106 @@ def _natural_key(path: Path) -> list:
             for s in re.split(r"(\d+)", path.name)]
 
 
-def write_trial_table(path: str | os.PathLike, results: Iterable[Kinematics]) -> Path:
-    """Write the trial table (header ``file, incidence_speed, ..., rebound_angle_se``, one row
-    per bounce, full float precision) atomically; ``bouncebayes.data.load_trials`` reads it."""
-    rows = [k.to_row() for k in results]
-    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=TRIAL_TABLE_COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(rows)
-    return Path(path)
+# ------------------------------------------------------------------------------ trial table
 
+def trials_from_kinematics(results: Sequence[Kinematics], experiment=None):
+    """The :class:`bouncebayes.data.Trials` of fitted bounces: labels, incidence and rebound with
+    standard errors, ``incidence_spin`` where measured, ``scale_rel_sd`` where stated.
 
-def refer_to_contact(results: Sequence[Kinematics], experiment) -> tuple[Kinematics, ...]:
-    """Move each incidence to the first contact and each rebound to the separation.
-
-    The two fitted free flights meet inside the contact, about half a contact time after the
-    first touch; the forward model's incidence is at first contact and its rebound at
-    separation, and the velocities differ by what the flight acceleration (gravity) adds in
-    between: about ``g t_c / 2``, 0.01 m/s for the paper's ball, a bias of about half a
-    standard error per bounce that would add up over a campaign. This simulates every bounce at
-    nominal contact parameters (the experiment's fixed values, or the medians of the priors of
-    inferred ones), finds where the model's own incoming and outgoing flights cross, and moves
-    each fitted velocity along its fitted parabola by those times. What remains depends on the
-    unknown parameters only through the contact time (about 10 % over the paper's prior, i.e.
-    ~1e-3 m/s). Standard errors are kept (the shift adds the acceleration's uncertainty times
-    ~1 ms, negligible).
+    Raises:
+        ValueError: some results have a spin (or a scale uncertainty) and others not.
     """
-    from ..model import simulate
+    def column(name: str) -> list[float] | None:
+        values = [getattr(k, name) for k in results]
+        if all(v is None for v in values):
+            return None
+        if any(v is None for v in values):
+            missing = next(k.label for k in results if getattr(k, name) is None)
+            raise ValueError(f"`{name}` is given for some trials but not for {missing!r}")
+        return values
 
-    if not results:
-        return ()
-    nominal = {name: (experiment.priors[name].ppf(0.5) if name in experiment.priors
-                      else experiment.fixed_value(name))
-               for name in ("mu", "eta", "youngs_modulus", "spin")}
-    v_in = np.array([_velocity(k.incidence_speed, k.incidence_angle, -1.0) for k in results])
-    v_out = np.array([_velocity(k.rebound_speed, k.rebound_angle, 1.0) for k in results])
-    a_in = np.array([k.acceleration_before[:2] for k in results])
-    a_out = np.array([k.acceleration_after[:2] for k in results])
-    v0, v_sep = v_in, v_out
-    gy = experiment.gravity * np.cos(np.radians(experiment.inclination))
-    for _ in range(3):  # fixed point: the contact instants depend weakly on the incidence
-        b = simulate(experiment.ball, mu=nominal["mu"], eta=nominal["eta"],
-                     speed=np.hypot(v0[:, 0], v0[:, 1]),
-                     angle=np.degrees(np.arctan2(v0[:, 0], -v0[:, 1])), spin=nominal["spin"],
-                     youngs_modulus=nominal["youngs_modulus"],
-                     inclination=experiment.inclination, normal_law=experiment.normal_law,
-                     gravity=experiment.gravity, errors="flag")
-        tc = np.where(b.ok, b.contact_time, 0.0)
-        vs = np.where(b.ok, b.rebound_normal_velocity, v_out[:, 1])
-        d_sep = np.where(b.ok, b.separation_overlap, 0.0)
-        # the model's flights y_in = r + v0y t - gy t^2/2 and y_out = r - d_sep + vs (t - tc)
-        # - gy (t - tc)^2/2 differ linearly in t: they cross at t_x
-        t_x = (d_sep + vs * tc + 0.5 * gy * tc**2) / (vs + gy * tc - v0[:, 1])
-        v0 = v_in - a_in * t_x[:, None]
-        v_sep = v_out + a_out * (tc - t_x)[:, None]
-    return tuple(replace(k, incidence_speed=float(np.hypot(*v0[i])),
-                         incidence_angle=float(np.degrees(np.arctan2(v0[i, 0], -v0[i, 1]))),
-                         rebound_speed=float(np.hypot(*v_sep[i])),
-                         rebound_angle=float(np.degrees(np.arctan2(v_sep[i, 0], v_sep[i, 1]))),
-                         instants="contact")
-                 for i, k in enumerate(results))
+    spin_se = [math.nan if k.incidence_spin_se is None else k.incidence_spin_se for k in results]
+    se = {q: [getattr(k, q + "_se") for k in results]
+          for q in ("incidence_speed", "incidence_angle", "rebound_speed", "rebound_angle")}
+    if column("incidence_spin") is not None:
+        se["incidence_spin"] = spin_se
+    return make_trials(experiment, rebound_speed=[k.rebound_speed for k in results],
+                       rebound_angle=[k.rebound_angle for k in results],
+                       incidence_speed=[k.incidence_speed for k in results],
+                       incidence_angle=[k.incidence_angle for k in results],
+                       incidence_spin=column("incidence_spin"), se=se,
+                       scale_rel_sd=column("scale_rel_sd"),
+                       labels=[k.label or Path(k.source).name for k in results],
+                       source="kinematics")
 
 
-def _velocity(speed: float, angle_deg: float, normal_sign: float) -> tuple[float, float]:
-    a = math.radians(angle_deg)
-    return speed * math.sin(a), normal_sign * speed * math.cos(a)
+def write_trial_table(path: str | os.PathLike, results: Sequence[Kinematics], *,
+                      provenance: Mapping[str, Any] | None = None) -> Path:
+    """Write the trial table of fitted bounces with ``bouncebayes.data.write_trials`` (the one
+    writer; ``bouncebayes.data.load_trials`` reads it)."""
+    return write_trials(path, trials_from_kinematics(list(results)), provenance=provenance)
 
 
 def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os.PathLike,
-                            *, log=print, **fit_kwargs
-                            ) -> tuple[FolderKinematics, tuple[Kinematics, ...]]:
-    """The experiment's trial table from a folder of trajectories: every file fitted with the
-    experiment's ``[trajectories]`` settings (rotation, length unit, drag), the results referred
-    to the contact instants (:func:`refer_to_contact`) and written to ``out``; ``log`` gets the
-    summary of which files were used and why others were not. Returns the folder's fits and
-    the referred kinematics that were written.
+                            *, log=print, provenance: Mapping[str, Any] | None = None,
+                            **options) -> tuple[FolderKinematics, tuple[Kinematics, ...]]:
+    """The experiment's trial table from a folder of trajectories.
+
+    Every file is fitted with the experiment's ``[trajectories]`` settings (rotation, length
+    unit, drag) and what the experiment's ball implies (:func:`ball_drag`: the expected drag
+    coefficient as the prior of the drag fit, or, without it, to check that ignoring drag
+    biases nothing; its largest physical value as the bound), with the ball's spin energy
+    allowed for in the energy gate, the
+    results referred to the contact instants (:func:`refer_to_contact`) and written to ``out``
+    with ``provenance`` plus what this step used (settings, input files and their SHA-256).
+    ``log`` gets the summary of which files were used and why others were not. Returns the
+    folder's fits and the referred kinematics that were written.
 
     Raises:
-        InputFileError: no file of the folder gave kinematics (nothing is written).
+        InputFileError: no bounce of the folder gave kinematics (nothing is written).
     """
+    if Path(out).is_dir():  # before the work, not after it
+        raise InputFileError(out, "is a folder; expected the name of the trial table to "
+                                  "write, e.g. trials.csv")
     s = experiment.trajectories
+    ball = experiment.ball
+    k, k_max = ball_drag(ball)
+    options = {"drag": s["drag"], "drag_k": k, "drag_k_max": k_max} | options
     found = kinematics_from_folder(folder, rotation_deg=s["rotation_deg"],
-                                   length_unit=s["length_unit"], drag=s["drag"], **fit_kwargs)
+                                   length_unit=s["length_unit"], ball=ball,
+                                   spin_bound=_spin_bound(experiment), **options)
     log(found.summary())
     if not found.results:
         raise InputFileError(folder, "no usable trajectory file: nothing written")
     results = refer_to_contact(found.results, experiment)
-    write_trial_table(out, results)
+    stated = sum(k.scale_rel_sd is not None for k in results)
+    if 0 < stated < len(results):
+        log(f"  note: the tracker stated a scale uncertainty for {stated} of {len(results)} "
+            "trials; `scale_rel_sd` is left out of the table (it holds it for every trial "
+            "or none)")
+        results = tuple(replace(k, scale_rel_sd=None) for k in results)
+    stamp = {"bouncebayes_version": __version__} | dict(provenance or {}) | {
+        "kinematics": {"folder": os.fspath(folder), "experiment": experiment.source,
+                       "experiment_sha256": experiment.text_sha256,
+                       "settings": {"rotation_deg": s["rotation_deg"],
+                                    "length_unit": s["length_unit"]} | {
+                           k: v for k, v in options.items()},
+                       "inputs": _hashes(folder)}}
+    write_trial_table(out, results, provenance=stamp)
     return found, results
+
+
+def _spin_bound(experiment) -> float:
+    """Largest plausible |incident spin| where none was measured (rad/s)."""
+    inc = experiment.incidence
+    bound = abs(inc.spin) + 3 * inc.spin_sd
+    if "spin" in experiment.priors:
+        prior = experiment.priors["spin"]
+        bound = max(bound, abs(float(prior.ppf(1e-3))), abs(float(prior.ppf(1 - 1e-3))))
+    return bound
+
+
+def _hashes(folder: str | os.PathLike) -> dict[str, str]:
+    root = Path(folder)
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.iterdir(), key=_natural_key) if p.is_file()}

@@ -1,39 +1,24 @@
-"""Reading one tracked bounce: a CSV file or a Tracker data export -> :class:`Trajectory`."""
+"""Reading one tracked ball: a trajectory file (or arrays) -> a clean :class:`Trajectory` in the
+plane-aligned frame, SI units."""
 
 from __future__ import annotations
 
-import csv
 import math
 import os
-import re
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Literal
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
 
 import numpy as np
 
 from .._errors import InputFileError
 from .._validate import check_choice, check_scalar
+from ..data import TrackSidecar, read_track_sidecar, read_trajectory_table
+from ._clean import Rows, check_order, check_plausible, drop_outliers, merge_repeats
 
 LengthUnit = Literal["m", "cm", "mm"]
 LENGTH_UNITS: dict[str, float] = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 MIN_TRACKED_POINTS = 6  # fewer rows than this cannot hold two fitted free-flight segments
-_REQUIRED = ("t", "x", "y")
-# Tracker's "File > Export > Data" text file, as written by its source
-# (github.com/OpenSourcePhysics/tracker, src/org/opensourcephysics/cabrillo/tracker/):
-# ExportDataDialog.saveAsAction writes the track name with spaces replaced by "_" and a newline,
-# then TrackerIO.getData: the column names joined by the delimiter, then one row per frame, each
-# number formatted "0.000000000E0" (unformatted export; e.g. 3.200000000E-2) with
-# OSPRuntime.getDecimalFormatSymbols() (so a decimal comma in such locales), and nothing written
-# for a null cell (an untracked frame) but the delimiter. TrackerIO.delimiters: tab (default),
-# space, comma, semicolon, plus custom ones. A worked example of the layout ("cm_A", then
-# "t  x  y", then "0.000000000E0  1.245986911E1  -1.328191643E1") is in the Brock University
-# Tracker notes, physics.brocku.ca/Courses/2P20/Tracker/index.php?page=21. Several tracks exported
-# together repeat the column names ("#multi:" title): we ask for one track per file.
-# Java's DecimalFormat writes NaN as U+FFFD (or "NaN") and infinity as U+221E.
-_NON_FINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity",
-               "-infinity", "\ufffd", "\u221e", "-\u221e"}
-_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,7 +27,11 @@ class Trajectory:
 
     ``flipped_x``: the incident travel was towards -x in the file, so x (and z, keeping the axes
     right-handed: a half-turn about the normal) were negated. ``rotation_deg``: the camera-to-plane
-    rotation that was applied. ``n_dropped``: rows skipped because a t/x/y(/z) cell was empty.
+    rotation that was applied. ``n_dropped``: rows left out as untracked (an empty or NaN cell).
+    ``notes``: one line per condition met while reading (rows left out, merged; with lines).
+    ``lines``: the file line of each sample (None for arrays). ``scale_rel_sd`` and
+    ``surface_angle_sd_deg``: the tracker's stated calibration uncertainty (its sidecar file).
+    ``quality``: the tracker's per-frame columns (``residual``, ``visible``) of the samples.
     """
 
     t: np.ndarray
@@ -54,9 +43,16 @@ class Trajectory:
     sample_rate_hz: float
     rotation_deg: float = 0.0
     n_dropped: int = 0
+    notes: tuple[str, ...] = ()
+    lines: np.ndarray | None = None
+    scale_rel_sd: float | None = None
+    surface_angle_sd_deg: float | None = None
+    quality: Mapping[str, np.ndarray] = field(default_factory=dict)
+    provenance: Mapping[str, Any] | None = None
 
     @property
     def n(self) -> int:
+        """Number of samples."""
         return int(self.t.size)
 
     def positions(self) -> np.ndarray:
@@ -67,20 +63,16 @@ class Trajectory:
 
 def read_trajectory(path: str | os.PathLike, *, rotation_deg: float = 0.0,
                     length_unit: LengthUnit = "m") -> Trajectory:
-    """Read one tracked bounce from a CSV file or a Tracker data export.
+    """Read one tracked ball from a trajectory file (``bouncebayes.data.read_trajectory_table``:
+    CSV ``t,x,y[,z]`` with optional quality columns, or Tracker's data export).
 
-    Accepted layouts (the delimiter is taken from the header row: tab, then ``;``, then ``,``,
-    else runs of spaces):
-
-    - CSV with a header row naming ``t``, ``x``, ``y`` and optionally ``z`` (any order, other
-      columns ignored; names are matched case-insensitively);
-    - Tracker's "Export > Data" text file: a title line with the track name (spaces written as
-      ``_``, e.g. ``mass_A``), a header row of column names joined by the chosen delimiter (tab by
-      default; space, comma, semicolon or custom), then one row per frame. Tracker writes numbers
-      with the locale's decimal separator (``1,245986911E-1`` in a decimal-comma locale, read here
-      whenever the delimiter is not a comma) and leaves a cell empty where a frame was not
-      tracked; such rows are dropped, never filled in (sources: the comment on Tracker's
-      format at the top of this module).
+    Rows as they come: untracked rows (an empty or NaN cell) and rows the tracker flagged are
+    left out; rows repeating a time stamp are merged when their positions agree (within 4 noise
+    SD) and rejected with the line when they do not; a row whose time goes back is rejected with
+    the line; outlier positions (far from what both neighbouring pairs of samples predict) are
+    left out; each of these is one line in ``notes``. A median sample interval outside
+    1 us - 0.1 s or a median speed outside 0.01-300 m/s stops the file with a hint at the unit.
+    A sidecar ``<name>.track.json`` gives the calibration uncertainty.
 
     Times are in seconds; positions in ``length_unit`` ("m", "cm" or "mm") and in the
     plane-aligned frame unless ``rotation_deg`` is given. Camera-to-plane rotation, in words::
@@ -98,25 +90,34 @@ def read_trajectory(path: str | os.PathLike, *, rotation_deg: float = 0.0,
     half-turn about the normal, which keeps the axes right-handed).
 
     Raises:
-        InputFileError: missing/unreadable/empty file, no header row naming t, x and y (the
-            message lists the columns found), a non-numeric or non-finite cell (line and column),
-            time not increasing (line), fewer than 6 tracked rows.
+        InputFileError: what ``read_trajectory_table`` rejects, rows out of order or repeating a
+            time with another position (line), too many outliers, implausible units, fewer than
+            6 tracked rows, a bad sidecar.
         ValueError, TypeError: a bad ``rotation_deg`` or ``length_unit``.
     """
     rotation = check_scalar("rotation_deg", rotation_deg, unit="deg")
-    scale = LENGTH_UNITS[check_choice("length_unit", length_unit, LENGTH_UNITS)]
-    lines = _read_lines(path)
-    columns, line_numbers, n_dropped = _parse_table(os.fspath(path), lines)
-    return _build(os.fspath(path), columns, line_numbers, rotation, scale, n_dropped)
+    check_choice("length_unit", length_unit, LENGTH_UNITS)
+    table = read_trajectory_table(path)
+    scale = LENGTH_UNITS[length_unit]
+    names = [c for c in ("x", "y", "z") if c in table.columns]
+    rows = Rows(table.source, table.columns["t"],
+                np.column_stack([table.columns[c] * scale for c in names]),
+                {k: table.columns[k] for k in ("residual", "visible") if k in table.columns},
+                table.lines)
+    sidecar = read_track_sidecar(path)
+    return _build(rows, rotation, length_unit, table.n_untracked, table.notes, sidecar,
+                  table.provenance)
 
 
 def trajectory_from_arrays(t, x, y, z=None, *, rotation_deg: float = 0.0,
-                           length_unit: LengthUnit = "m",
-                           source: str = "<arrays>") -> Trajectory:
+                           length_unit: LengthUnit = "m", source: str = "<arrays>",
+                           scale_rel_sd: float | None = None,
+                           surface_angle_sd_deg: float | None = None) -> Trajectory:
     """Build a :class:`Trajectory` from arrays, with the checks and transforms of
-    :func:`read_trajectory` (problems are reported by 0-based index instead of line)."""
+    :func:`read_trajectory` (problems are reported by 0-based index instead of line; every
+    value must be finite)."""
     rotation = check_scalar("rotation_deg", rotation_deg, unit="deg")
-    scale = LENGTH_UNITS[check_choice("length_unit", length_unit, LENGTH_UNITS)]
+    check_choice("length_unit", length_unit, LENGTH_UNITS)
     named = {"t": t, "x": x, "y": y} | ({} if z is None else {"z": z})
     columns = {k: np.asarray(v, dtype=float) for k, v in named.items()}
     shapes = {k: v.shape for k, v in columns.items()}
@@ -128,150 +129,44 @@ def trajectory_from_arrays(t, x, y, z=None, *, rotation_deg: float = 0.0,
         if bad.size:
             raise InputFileError(source, f"must be finite; got {float(values[bad[0]])!r} at "
                                          f"index {int(bad[0])}", field=name)
-    return _build(source, columns, None, rotation, scale, 0)
+    scale = LENGTH_UNITS[length_unit]
+    pos = np.column_stack([columns[c] * scale for c in ("x", "y", "z") if c in columns])
+    sidecar = TrackSidecar(source, scale_rel_sd, surface_angle_sd_deg)
+    return _build(Rows(source, columns["t"], pos, {}, None), rotation, length_unit, 0, (),
+                  sidecar, None)
 
 
-def _read_lines(path: str | os.PathLike) -> list[str]:
-    p = Path(path)
-    if not p.exists():
-        raise InputFileError(p, "no such file; expected a CSV or Tracker text export with "
-                                "columns t, x, y")
-    if p.is_dir():
-        raise InputFileError(p, "is a folder; expected one trajectory file (use "
-                                "kinematics_from_folder for a folder)")
-    try:
-        text = p.read_bytes().decode("utf-8-sig")
-    except OSError as exc:
-        raise InputFileError(p, f"cannot read the file ({exc.strerror})") from None
-    except UnicodeDecodeError:
-        raise InputFileError(p, "not UTF-8 text; expected a CSV or Tracker text export") from None
-    lines = text.splitlines()
-    if not any(line.strip() for line in lines):
-        raise InputFileError(p, "the file is empty; expected a header row naming the columns "
-                                f"t, x, y and at least {MIN_TRACKED_POINTS} rows of numbers")
-    return lines
-
-
-def _delimiter(line: str) -> str | None:
-    return next((d for d in ("\t", ";", ",") if d in line), None)
-
-
-def _split(line: str, delimiter: str | None) -> list[str]:
-    cells = line.split() if delimiter is None else next(csv.reader([line], delimiter=delimiter))
-    return [c.strip() for c in cells]
-
-
-def _column_name(cell: str) -> str:
-    return cell.strip().strip("\"'").strip().lower()
-
-
-def _number(cell: str, decimal_comma: bool) -> float | None:
-    """The value of a cell, NaN for a non-finite word, None if it is not a number."""
-    text = cell.replace(",", ".") if decimal_comma else cell
-    if text.lower() in _NON_FINITE:
-        return math.nan
-    return float(text) if _NUMBER.fullmatch(text) else None
-
-
-def _find_header(path: str, lines: list[str]) -> tuple[int, str | None, list[str]]:
-    """Index, delimiter and column names of the first row naming t, x and y."""
-    candidate = None
-    for i, line in enumerate(lines):
-        if not line.strip():
-            continue
-        delimiter = _delimiter(line)
-        cells = _split(line, delimiter)
-        names = [_column_name(c) for c in cells]
-        if set(_REQUIRED) <= set(names):
-            return i, delimiter, names
-        first = next((c for c in cells if c), "")
-        if _number(first, delimiter != ",") is not None:
-            break  # numbers before any header
-        candidate = (i, names)
-    if candidate is None:
-        raise InputFileError(path, "no header row: the first row already holds numbers; the "
-                                   "first row (after an optional title line) must name the "
-                                   "columns, e.g. `t,x,y`", line=i + 1)
-    i, names = candidate
-    missing = ", ".join(f"`{n}`" for n in _REQUIRED if n not in names)
-    found = ", ".join(repr(n) for n in names if n) or "none"
-    raise InputFileError(path, f"no header row naming the columns t, x and y: missing {missing}; "
-                               f"the columns found are {found}", line=i + 1)
-
-
-def _parse_table(path: str, lines: list[str]
-                 ) -> tuple[dict[str, np.ndarray], np.ndarray, int]:
-    """Columns t, x, y (, z) of the tracked rows, their line numbers, the count of dropped rows."""
-    start, delimiter, names = _find_header(path, lines)
-    wanted = [n for n in (*_REQUIRED, "z") if n in names]
-    for name in wanted:
-        if names.count(name) > 1:
-            where = [j + 1 for j, n in enumerate(names) if n == name]
-            raise InputFileError(path, f"column `{name}` appears {len(where)} times (columns "
-                                       f"{where}); Tracker writes this when several tracks are "
-                                       "exported together: export one track per file",
-                                 line=start + 1)
-    index = {n: names.index(n) for n in wanted}
-    values: dict[str, list[float]] = {n: [] for n in wanted}
-    line_numbers, dropped = [], 0
-    for i in range(start + 1, len(lines)):
-        if not lines[i].strip():
-            continue
-        cells = _split(lines[i], delimiter)
-        row = {n: cells[j] if j < len(cells) else "" for n, j in index.items()}
-        if any(c == "" for c in row.values()):
-            dropped += 1  # an untracked frame: never invented
-            continue
-        for name, cell in row.items():
-            values[name].append(_cell(path, i + 1, name, index[name], cell, delimiter != ","))
-        line_numbers.append(i + 1)
-    return {k: np.array(v) for k, v in values.items()}, np.array(line_numbers, int), dropped
-
-
-def _cell(path: str, line: int, name: str, column: int, cell: str, decimal_comma: bool) -> float:
-    value = _number(cell, decimal_comma)
-    if value is None:
-        raise InputFileError(path, f"column {column + 1} holds {cell!r}, which is not a number; "
-                                   "allowed: decimal numbers such as 0.0125 or 1.25E-2"
-                                   + (" (a decimal comma is accepted)" if decimal_comma else ""),
-                             line=line, field=name)
-    if not math.isfinite(value):
-        raise InputFileError(path, f"column {column + 1} holds {cell!r}, which is not a finite "
-                                   "number; leave the cells of an untracked frame empty",
-                             line=line, field=name)
-    return value
-
-
-def _build(source: str, columns: dict[str, np.ndarray], line_numbers: np.ndarray | None,
-           rotation_deg: float, scale: float, n_dropped: int) -> Trajectory:
-    t = columns["t"]
-
-    def where(i: int) -> dict:
-        return {"line": int(line_numbers[i])} if line_numbers is not None else {}
-
-    def at(i: int) -> str:
-        return "" if line_numbers is not None else f" at index {i}"
-
-    if t.size < MIN_TRACKED_POINTS:
-        skipped = (f" ({n_dropped} row{'s' if n_dropped > 1 else ''} with an empty cell "
-                   f"{'were' if n_dropped > 1 else 'was'} skipped)") if n_dropped else ""
-        raise InputFileError(source, f"only {t.size} tracked rows{skipped}; need at least "
-                                     f"{MIN_TRACKED_POINTS}")
-    bad = np.flatnonzero(np.diff(t) <= 0)
-    if bad.size:
-        i = int(bad[0]) + 1
-        raise InputFileError(source, f"time must increase from row to row; got t = "
-                                     f"{float(t[i])!r} s{at(i)} after t = {float(t[i - 1])!r} s",
-                             field="t", **where(i))
-    x, y = _rotate(columns["x"] * scale, columns["y"] * scale, math.radians(rotation_deg))
-    z = columns["z"] * scale if "z" in columns else None
+def _build(rows: Rows, rotation_deg: float, length_unit: str, n_dropped: int,
+           notes: tuple[str, ...], sidecar: TrackSidecar | None,
+           provenance: Mapping[str, Any] | None) -> Trajectory:
+    _check_count(rows, n_dropped)
+    check_order(rows)
+    rows, merged = merge_repeats(rows)
+    rows, dropped = drop_outliers(rows)
+    _check_count(rows, n_dropped)
+    check_plausible(rows, length_unit, LENGTH_UNITS)
+    x, y = _rotate(rows.pos[:, 0], rows.pos[:, 1], math.radians(rotation_deg))
+    z = rows.pos[:, 2] if rows.pos.shape[1] > 2 else None
     flipped = _travels_backwards(x, y)
     if flipped:
         x, z = -x, (None if z is None else -z)
-    return Trajectory(t=_frozen(t), x=_frozen(x), y=_frozen(y),
-                      z=None if z is None else _frozen(z), source=source, flipped_x=flipped,
-                      sample_rate_hz=float(np.median(1.0 / np.diff(t))),
-                      rotation_deg=rotation_deg, n_dropped=n_dropped)
+    return Trajectory(t=_frozen(rows.t), x=_frozen(x), y=_frozen(y),
+                      z=None if z is None else _frozen(z), source=rows.source, flipped_x=flipped,
+                      sample_rate_hz=float(np.median(1.0 / np.diff(rows.t))),
+                      rotation_deg=rotation_deg, n_dropped=n_dropped,
+                      notes=(*notes, *merged, *dropped), lines=rows.lines,
+                      scale_rel_sd=sidecar.scale_rel_sd if sidecar else None,
+                      surface_angle_sd_deg=sidecar.surface_angle_sd_deg if sidecar else None,
+                      quality={k: _frozen(v) for k, v in rows.quality.items()},
+                      provenance=provenance)
+
+
+def _check_count(rows: Rows, n_dropped: int) -> None:
+    if rows.t.size < MIN_TRACKED_POINTS:
+        skipped = (f" ({n_dropped} row{'s' if n_dropped > 1 else ''} with an empty cell "
+                   f"{'were' if n_dropped > 1 else 'was'} skipped)") if n_dropped else ""
+        raise InputFileError(rows.source, f"only {rows.t.size} tracked rows{skipped}; need at "
+                                          f"least {MIN_TRACKED_POINTS}")
 
 
 def _rotate(x: np.ndarray, y: np.ndarray, a: float) -> tuple[np.ndarray, np.ndarray]:

@@ -1,12 +1,12 @@
 """What a fit of one bounce gives: :class:`Kinematics`, or a :class:`TrajectoryError` that says
-why not; and the fitted free-flight segment that both flight models share."""
+why not."""
 
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
-from pathlib import Path
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -14,18 +14,21 @@ import numpy as np
 from .._errors import InputFileError
 
 FailureReason = Literal["no bounce", "several bounces", "too few points", "no crossing",
-                        "bad fit"]
-TRIAL_TABLE_COLUMNS = ("file", "incidence_speed", "incidence_speed_se", "incidence_angle",
-                       "incidence_angle_se", "rebound_speed", "rebound_speed_se",
-                       "rebound_angle", "rebound_angle_se")
+                        "bad fit", "misfit", "implausible errors", "energy gain",
+                        "impact outside the gap", "no spin"]
+# The columns kinematics writes (bouncebayes.data.write_trials' layout), before the optional
+# incidence_spin(_se) and scale_rel_sd.
+TRIAL_TABLE_COLUMNS = ("trial", "rebound_speed", "rebound_angle", "incidence_speed",
+                       "incidence_angle", "rebound_speed_se", "rebound_angle_se",
+                       "incidence_speed_se", "incidence_angle_se")
 
 
 class TrajectoryError(InputFileError):
-    """A trajectory file that was read but cannot give kinematics.
+    """A trajectory (or one bounce of it: ``path`` is then ``<file>#<k>``) that was read but
+    cannot give kinematics.
 
-    ``reason`` is a short code (:data:`FailureReason`: ``"no bounce"``, ``"several bounces"``,
-    ``"too few points"``, ``"no crossing"``, ``"bad fit"``); the message says what was found
-    and what to do.
+    ``reason`` is a short code (:data:`FailureReason`); the message says what was found and
+    what to do.
     """
 
     def __init__(self, path: str | os.PathLike, message: str, *, reason: FailureReason,
@@ -41,11 +44,21 @@ class Kinematics:
 
     Angles are from the plane normal; the rebound angle is positive when the ball keeps moving
     forward. ``acceleration_before``/``after``: the fitted constant accelerations (x, y[, z]) of
-    the free flight, in the trajectory's frame (with ``drag``: the constant part ``a``).
+    the free flight, in the trajectory's frame (with drag: the constant part ``a``).
     ``lateral_angle`` (3-D only): the angle between the rebound velocity and the plane of
     incidence, positive towards ``t x n`` (``t``: incident direction in the plane, ``n``: normal).
     ``flipped_x``: the reported x axis points opposite to the file's (after any rotation).
-    ``drag_coefficient``: fitted ``k`` (1/m) before and after, with ``drag="quadratic"``.
+    ``drag_coefficient``: fitted ``k`` (1/m) before and after with ``drag="quadratic"`` (NaN for
+    a flight that fell back to constant acceleration; ``notes`` says why).
+
+    ``label``: the trial's name, ``<file>`` or ``<file>#<k>`` for bounce ``k`` (1-based) of a
+    file with ``n_bounces > 1``. ``notes``: one-line messages about the file and the fit (rows
+    merged or left out, drag fallbacks). ``gates``: the statistics the quality gates tested.
+    ``incidence_spin`` (rad/s, with its standard error), ``scale_rel_sd``: from a ``spin.csv``
+    beside the trajectories and the tracker's sidecar, where given.
+    ``impact_acceleration_before``/``after``: the flights' accelerations at the impact (drag
+    included) along the incident direction in the plane and along the normal, in the frame of
+    the reported angles.
     """
 
     incidence_speed: float
@@ -71,27 +84,19 @@ class Kinematics:
     drag: str | None = None
     drag_coefficient: tuple[float, float] | None = None
     instants: str = "crossing"  #: "crossing" of the fitted flights, or "contact" (referred)
-
-    def to_row(self) -> dict[str, str | float]:
-        """The trial-table row: ``file`` (name) plus the eight columns ``load_trials`` reads."""
-        return {name: Path(self.source).name if name == "file" else float(getattr(self, name))
-                for name in TRIAL_TABLE_COLUMNS}
-
-
-@dataclass(frozen=True)
-class _Segment:
-    """A fitted free-flight segment; ``params`` (flat) and ``cov`` for the delta method."""
-
-    index: np.ndarray  # samples used
-    params: np.ndarray
-    cov: np.ndarray
-    rss: float
-    n_resid: int
-    acceleration: tuple[float, ...]
-    drag_k: float | None = None
+    label: str = ""
+    bounce: int = 1
+    n_bounces: int = 1
+    notes: tuple[str, ...] = ()
+    gates: Mapping[str, float] = field(default_factory=dict)
+    incidence_spin: float | None = None
+    incidence_spin_se: float | None = None
+    scale_rel_sd: float | None = None
+    impact_acceleration_before: tuple[float, float] | None = None
+    impact_acceleration_after: tuple[float, float] | None = None
 
 
-def _observables(v_in: np.ndarray, v_out: np.ndarray) -> list[float]:
+def observables(v_in: np.ndarray, v_out: np.ndarray) -> list[float]:
     """[incidence speed, angle, rebound speed, angle(, lateral angle)] from impact velocities."""
     if v_in.size == 2:
         return [math.hypot(*v_in), math.degrees(math.atan2(v_in[0], abs(v_in[1]))),
