@@ -37,6 +37,8 @@ from ._result import FailureReason as FailureReason
 from ._result import Kinematics as Kinematics
 from ._result import TrajectoryError as TrajectoryError
 
-__all__ = ["DRAG_MODELS", "LENGTH_UNITS", "TRIAL_TABLE_COLUMNS", "FolderKinematics", "Kinematics",
-           "Trajectory", "TrajectoryError", "fit_kinematics", "kinematics_from_folder",
-           "read_trajectory", "trajectory_from_arrays", "write_trial_table"]
+__all__ = ["DRAG_MODELS", "Drag", "FailureReason", "FolderKinematics", "Kinematics",
+           "LENGTH_UNITS", "LengthUnit", "MIN_TRACKED_POINTS", "PROMINENCE_IN_NOISE_SD",
+           "TRIAL_TABLE_COLUMNS", "Trajectory", "TrajectoryError", "fit_kinematics",
+           "kinematics_from_folder", "read_trajectory", "refer_to_contact",
+           "trajectory_from_arrays", "trial_table_from_folder", "write_trial_table"]
