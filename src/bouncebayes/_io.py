@@ -272,7 +272,7 @@ def remove_stale(folder: str | os.PathLike) -> list[Path]:
     partial files whose process is gone. A replaced folder whose replacement never arrived
     (killed between two renames) is moved back instead. Returns the paths removed."""
     folder = Path(folder)
-    removed = []
+    removed: list[Path] = []
     try:
         entries = sorted(folder.iterdir())
     except OSError:

@@ -213,9 +213,10 @@ def _stamp_npz(path: Path, record: Mapping) -> None:
     import numpy as np
 
     with np.load(path) as z:
-        arrays = {k: z[k] for k in z.files if k != KEY}
+        arrays: dict[str, Any] = {k: z[k] for k in z.files if k != KEY}
+    arrays[KEY] = np.array(one_line(record))
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, **arrays, **{KEY: np.array(one_line(record))})
+        np.savez_compressed(fh, **arrays)
 
 
 def _stamp_netcdf(path: Path, record: Mapping) -> None:

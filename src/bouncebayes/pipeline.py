@@ -283,7 +283,7 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
     with staged_output(folder, "folder", start_from=folder) as stage:
         for name in ("figures", "report.html"):
             _remove(stage / name)
-        written = []
+        written: list[Path] = []
         if prop is None:
             from .propagation import propagate, write_propagation
 

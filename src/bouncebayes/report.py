@@ -6,6 +6,7 @@ import base64
 import html
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +45,7 @@ CAPTIONS = {
 
 
 RUN_FILES = ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE)
-_SUMMARY_KEYS = {"parameters": dict, "likelihood": str, "sampler": str, "seed": int,
+_SUMMARY_KEYS: dict[str, type | tuple[type, ...]] = {"parameters": dict, "likelihood": str, "sampler": str, "seed": int,
                  "sampler_settings": dict, "regimes": dict, "warnings": list,
                  "likelihood_details": dict, "seconds": (int, float)}
 _RERUN = "run `bouncebayes infer` or `bouncebayes run` again to make it"
@@ -130,8 +131,9 @@ def _parameter_summaries(path: Path, parameters: dict) -> tuple[ParameterSummary
     out = []
     for name, p in parameters.items():
         try:
-            out.append(ParameterSummary(**{k: (tuple(v) if k in ("ci90", "modes") else v)
-                                           for k, v in p.items() if k != "paper_form"}))
+            fields: dict[str, Any] = {k: (tuple(v) if k in ("ci90", "modes") else v)
+                                      for k, v in p.items() if k != "paper_form"}
+            out.append(ParameterSummary(**fields))
         except (TypeError, AttributeError) as exc:
             raise InputFileError(path, f"damaged: {exc}; {_RERUN}",
                                  field=f"parameters.{name}") from None
