@@ -125,6 +125,7 @@ def staged_output(target: str | os.PathLike, mode: StagingMode, *,
     if home == target.parent and target.is_dir():
         remove_stale(target)
     stage = home / _temp_name(label, "staging")
+    _ACTIVE[stage] = created
     try:
         if start_from is not None:
             shutil.copytree(start_from, stage, copy_function=link_or_copy, symlinks=True,
@@ -132,13 +133,56 @@ def staged_output(target: str | os.PathLike, mode: StagingMode, *,
         else:
             stage.mkdir()
         yield stage
-        _install(stage, target, mode, frozenset(owned))
+        with _signals_held():
+            _install(stage, target, mode, frozenset(owned))
+            INSTALLED.append(target)
     except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        for folder in created:  # folders made for this output only, still empty
-            with contextlib.suppress(OSError):
-                folder.rmdir()
+        _discard(stage)
         raise
+    finally:
+        _ACTIVE.pop(stage, None)
+
+
+# staging folder -> the folders made for it (removed again if still empty when it is discarded)
+_ACTIVE: dict[Path, list[Path]] = {}
+
+
+def _discard(stage: Path) -> None:
+    shutil.rmtree(stage, ignore_errors=True)
+    for folder in _ACTIVE.get(stage, ()):  # folders made for this output only, still empty
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+
+def discard_staged() -> None:
+    """Remove every staging folder of this process (a process that stops at once calls it:
+    its outputs are then as they were before it started)."""
+    for stage in list(_ACTIVE):
+        _discard(stage)
+
+
+# every output put in place by this process, in order (the command line tells a user whose
+# Ctrl-C came after the results were in place that they are complete)
+INSTALLED: list[Path] = []
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM while outputs are moved into place (a few renames): a stop then
+    takes effect just after, never half-way."""
+    import signal
+    import threading
+
+    held = {signal.SIGINT, signal.SIGTERM}
+    if threading.current_thread() is not threading.main_thread() or \
+            not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _beside_possible(target: Path) -> bool:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -163,7 +164,7 @@ def _check_grid(path: Path) -> None:
     if not path.exists():
         return
     try:
-        with np.load(path) as z:
+        with open(path, "rb") as fh, np.load(fh) as z:  # our handle: closed even on failure
             missing = {"density", "centres_0"} - set(z.files)
     except Exception as exc:  # any reader failure means a damaged file; name it
         raise InputFileError(path, f"damaged: cannot be read ({_short(exc)}); {_RERUN}") \
@@ -198,6 +199,8 @@ def load_run_propagation(folder: str | Path):
     for key in keys:
         if key not in summary:
             raise InputFileError(files[0], f"damaged: the key is missing; {remedy}", field=key)
+    if not zipfile.is_zipfile(files[1]):
+        raise InputFileError(files[1], f"damaged: not a NumPy archive (truncated?); {remedy}")
     try:
         return load_propagation(folder)
     except Exception as exc:  # any reader failure means a damaged file; name it

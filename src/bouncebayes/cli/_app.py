@@ -11,6 +11,7 @@ Only the chosen sub-command's options are built: ``bouncebayes --help`` imports 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import signal
@@ -76,7 +77,9 @@ def build_parser(commands: Sequence[str] | None = None) -> argparse.ArgumentPars
                            description=getattr(module, command.prefix + "DESCRIPTION"))
         if commands is None or command.name in commands:
             getattr(module, command.add)(p)
-            p.set_defaults(run=getattr(module, command.run))
+            # argparse has no public accessor for a parser's options
+            flags = frozenset(s for a in p._actions for s in a.option_strings)
+            p.set_defaults(run=getattr(module, command.run), flags=flags)
     return parser
 
 
@@ -86,43 +89,106 @@ def _chosen(argv: Sequence[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``bouncebayes`` command; returns the exit status."""
+    """Entry point of the ``bouncebayes`` command; returns the exit status.
+
+    Called without ``argv`` it is the program (it reads ``sys.argv``): Ctrl-C or SIGTERM then
+    discard the staged outputs, print one line and end the process at once, so that no
+    exception unwinds through compiled code that was interrupted half-way (numba's compiler,
+    HDF5, matplotlib). Called with a list of words (in-process, as the tests do) they raise
+    KeyboardInterrupt instead and the same line is printed.
+    """
+    stop = _Stop(program=argv is None)
     argv = list(sys.argv[1:] if argv is None else argv)
     # numba's threads beside a multi-threaded BLAS oversubscribe the cores (10x slowdown
     # measured); set before NumPy loads its BLAS, and limited below where it already has
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    args = build_parser(_chosen(argv)).parse_args(argv)
-    args.argv = ["bouncebayes", *argv]
-    from threadpoolctl import threadpool_limits
+    with stop.handling():
+        args = build_parser(_chosen(argv)).parse_args(argv)
+        args.argv = ["bouncebayes", *argv]
+        stop.args = args
+        from threadpoolctl import threadpool_limits
 
-    with _stop_signals() as stop, _one_line_warnings(args.command), \
-            threadpool_limits(limits=1, user_api="blas"):
-        try:
-            return args.run(args)
-        except SystemExit:
-            raise
-        except BaseException as exc:
-            if args.traceback:
+        with _one_line_warnings(args.command), threadpool_limits(limits=1, user_api="blas"):
+            try:
+                return args.run(args)
+            except SystemExit:
                 raise
-            return _failure(args, exc, stop)
+            except BaseException as exc:
+                if args.traceback:
+                    raise
+                return _failure(args, exc, stop)
 
 
-def _failure(args: argparse.Namespace, exc: BaseException, stop: dict) -> int:
-    """Print the one line a failure deserves; return the exit status."""
-    if stop["signal"] is not None or isinstance(exc, KeyboardInterrupt):
-        out = _output_of(args)
-        where = f"; earlier results in {out} are intact" if out else "; nothing was written"
-        print(f"bouncebayes {args.command}: stopped{where}", file=sys.stderr)
-        term = stop["signal"] == signal.SIGTERM or isinstance(exc, Terminated)
+class _Stop:
+    """What Ctrl-C (SIGINT) and SIGTERM do: stop, say whether earlier results are intact."""
+
+    def __init__(self, program: bool) -> None:
+        from .._io import INSTALLED
+
+        self.program = program
+        self.signal: int | None = None
+        self.args: argparse.Namespace | None = None
+        self.installed = len(INSTALLED)
+
+    def status(self, exc: BaseException | None = None) -> int:
+        term = self.signal == signal.SIGTERM or isinstance(exc, Terminated)
         return EXIT_SIGTERM if term else EXIT_SIGINT
-    print(f"bouncebayes {args.command}: error: {one_line(describe(exc))}", file=sys.stderr)
+
+    def message(self) -> str:
+        from .._io import INSTALLED
+
+        args = self.args
+        if args is None:
+            return "bouncebayes: stopped; nothing was written"
+        out = _output_of(args)
+        if len(INSTALLED) > self.installed:
+            where = f" after the results were put in {out}: they are complete"
+        else:
+            where = f"; earlier results in {out} are intact" if out else "; nothing was written"
+        return f"bouncebayes {args.command}: stopped{where}"
+
+    def handler(self, signum: int, frame) -> None:
+        self.signal = signum
+        if not self.program:
+            raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+        from .._io import discard_staged
+
+        for s in (signal.SIGINT, signal.SIGTERM):  # a second Ctrl-C must not cut this short
+            signal.signal(s, signal.SIG_IGN)
+        discard_staged()
+        with contextlib.suppress(Exception):
+            sys.stdout.flush()
+        print(self.message(), file=sys.stderr, flush=True)
+        os._exit(self.status())
+
+    @contextmanager
+    def handling(self) -> Iterator[None]:
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        previous = {s: signal.signal(s, self.handler) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for s, h in previous.items():
+                signal.signal(s, h)
+
+
+def _failure(args: argparse.Namespace, exc: BaseException, stop: _Stop) -> int:
+    """Print the one line a failure deserves; return the exit status."""
+    if stop.signal is not None or isinstance(exc, KeyboardInterrupt):
+        print(stop.message(), file=sys.stderr)
+        return stop.status(exc)
+    message = one_line(describe(exc, getattr(args, "flags", frozenset())))
+    print(f"bouncebayes {args.command}: error: {message}", file=sys.stderr)
     return EXIT_FAILURE
 
 
-def describe(exc: BaseException) -> str:
-    """What went wrong, in words: the message of an input error, the file of an OS error."""
+def describe(exc: BaseException, flags: frozenset[str] = frozenset()) -> str:
+    """What went wrong, in words: the message of an input error (naming the command's flags
+    where the library names its arguments), the file of an OS error."""
     if isinstance(exc, UserError | ValueError | TypeError):
-        return flag_names(str(exc))
+        return flag_names(str(exc), flags)
     if isinstance(exc, OSError):
         where = " -> ".join(str(f) for f in (exc.filename, exc.filename2) if f is not None)
         reason = exc.strerror or str(exc) or type(exc).__name__
@@ -144,27 +210,6 @@ def _output_of(args: argparse.Namespace) -> Path | None:
     if out is None and args.command == "report":
         out = args.folder
     return out
-
-
-@contextmanager
-def _stop_signals() -> Iterator[dict]:
-    """SIGTERM stops like Ctrl-C; remember which signal arrived (an interrupted C extension
-    may turn the KeyboardInterrupt into another exception)."""
-    stop: dict = {"signal": None}
-    if threading.current_thread() is not threading.main_thread():
-        yield stop
-        return
-
-    def handler(signum, frame):
-        stop["signal"] = signum
-        raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
-
-    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield stop
-    finally:
-        for s, h in previous.items():
-            signal.signal(s, h)
 
 
 @contextmanager

@@ -11,6 +11,7 @@ import math
 import os
 import re
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -72,15 +73,21 @@ def _nearest_existing(path: Path) -> Path:
     return next(p for p in (path, *path.parents) if os.path.lexists(p))
 
 
-def _check_creatable(option: str, path: Path) -> None:
-    anchor = _nearest_existing(path)
-    if anchor != path and not anchor.is_dir():
-        raise UserError(f"`{option}` {path}: {anchor} is a file, so no folder can be made "
-                        f"under it; give another path")
-    folder = anchor if anchor.is_dir() else anchor.parent
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise UserError(f"`{option}` {path}: cannot write in {folder} (permission denied); "
-                        f"give a folder you can write to")
+def _check_creatable(option: str, folder: Path) -> None:
+    """``folder`` exists or can be made, and files can be written in it: probed by making (and
+    removing) an empty hidden file, which also catches what permission bits do not (read-only
+    file systems, and a user who may write anywhere)."""
+    anchor = _nearest_existing(folder)
+    if not anchor.is_dir():
+        raise UserError(f"`{option}` {folder}: {anchor} is a file, so no folder can be made "
+                        f"there; give another path")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".bouncebayes-probe-", dir=anchor)
+    except OSError as exc:
+        raise UserError(f"`{option}` {folder}: cannot write in {anchor} "
+                        f"({exc.strerror or exc}); give a folder you can write to") from None
+    os.close(fd)
+    os.unlink(probe)
 
 
 def check_out_folder(option: str, path: Path) -> Path:
@@ -126,7 +133,7 @@ def record(args: argparse.Namespace, inputs: dict[str, Any], *, seed: int | None
 
     if config is None:
         config = {k: v for k, v in vars(args).items()
-                  if k not in ("run", "argv", "traceback", "command")}
+                  if k not in ("run", "argv", "traceback", "command", "flags")}
     return provenance(inputs=inputs, seed=seed, config=config, argv=getattr(args, "argv", None))
 
 
@@ -144,9 +151,19 @@ SAMPLER_FLAGS = {"draws": "--draws", "chains": "--chains", "burn_in": "--burn-in
 _FLAG_NAME = re.compile(r"`(" + "|".join(sorted(SAMPLER_FLAGS, key=len, reverse=True)) + r")`")
 
 
-def flag_names(text: str) -> str:
-    """Library messages name arguments (`` `burn_in` ``); the command line names flags."""
-    return _FLAG_NAME.sub(lambda m: f"`{SAMPLER_FLAGS[m[1]]}`", text)
+def flag_names(text: str, flags: frozenset[str] = frozenset()) -> str:
+    """Library messages name arguments (`` `burn_in` ``); the command line names flags: the
+    sampler settings, and any ``a_b`` whose flag ``--a-b`` is among ``flags``."""
+    text = _FLAG_NAME.sub(lambda m: f"`{SAMPLER_FLAGS[m[1]]}`", text)
+
+    def flag(m: re.Match) -> str:
+        option = "--" + m[1].replace("_", "-")
+        return f"`{option}`" if option in flags else m[0]
+
+    return _SNAKE_NAME.sub(flag, text)
+
+
+_SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)+)`")
 
 
 def add_sampler_arguments(p: argparse.ArgumentParser) -> None:

@@ -61,9 +61,12 @@ def run_demo(args: argparse.Namespace) -> int:
 
 def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | None = None
          ) -> int:
+    from .._validate import check_scalar
     from ..pipeline import run
 
     check_out_folder("--out", args.out)
+    if getattr(args, "fps", None) is not None:
+        check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
     outcome = run(experiment, data, args.out, likelihood=args.likelihood, sampler=args.sampler,
                   seed=args.seed, config=sampler_config(args), noise=args.noise,
                   progress=show_progress(args), log=log, truth=truth,

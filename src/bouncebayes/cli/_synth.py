@@ -47,10 +47,16 @@ def run(args: argparse.Namespace) -> int:
     print(f"synthetic campaign: {t.n} bounces, seed {args.seed}, truth mu = "
           f"{truth['population']['mu']:g}, eta = {truth['population']['eta']:g} "
           f"{experiment.unit('eta')}")
-    print(f"  rebound speed {t.rebound_speed.mean():.4g} +- {t.rebound_speed.std(ddof=1):.2g}"
-          f" m/s, rebound angle {t.rebound_angle.mean():.4g} +- "
-          f"{t.rebound_angle.std(ddof=1):.2g} deg; "
-          f"{100 * truth['share_rolling']:.0f} % of bounces left rolling")
+    print(f"  rebound speed {_spread(t.rebound_speed)} m/s, rebound angle "
+          f"{_spread(t.rebound_angle)} deg; {100 * truth['share_rolling']:.0f} % of bounces left "
+          f"rolling")
     for name, path in paths.items():
         print(f"  {name}: {args.out / Path(path).relative_to(stage)}")
     return 0
+
+
+def _spread(values) -> str:
+    """``mean +- sd``, or the value alone for one bounce."""
+    if len(values) < 2:
+        return f"{values.mean():.4g}"
+    return f"{values.mean():.4g} +- {values.std(ddof=1):.2g}"

@@ -100,7 +100,10 @@ def _settings(args: argparse.Namespace) -> dict:
         reference = ((x1, y1), (x2, y2), metres)
     if args.surface is not None:
         x1, y1, x2, y2 = parse_numbers("--surface", args.surface, ("X1", "Y1", "X2", "Y2"))
-        surface = Surface.from_points((x1, y1), (x2, y2))
+        try:
+            surface = Surface.from_points((x1, y1), (x2, y2))
+        except ValueError as exc:
+            raise ValueError(f"`--surface` {args.surface}: {exc}") from None
     if args.fps is not None:
         check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
     check_scalar("--ball-diameter", args.ball_diameter, unit="m", low=0.0, low_open=True)
