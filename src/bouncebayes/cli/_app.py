@@ -51,7 +51,8 @@ class _Version(argparse.Action):
     def __call__(self, parser, namespace, values, option_string=None):
         from .._version import __version__
 
-        parser.exit(0, f"bouncebayes {__version__}\n")
+        print(f"bouncebayes {__version__}")
+        parser.exit(0)
 
 
 class Terminated(KeyboardInterrupt):
