@@ -113,8 +113,8 @@ HEAVY = ("cv2", "arviz", "matplotlib", "xarray", "emcee", "h5py")
 
 def _modules_after(code: str) -> set[str]:
     """The modules a fresh interpreter has loaded after running ``code``."""
-    out = subprocess.run([sys.executable, "-c", code + "\nimport sys\nprint(' '.join(sys.modules))"],
-                         capture_output=True, text=True, timeout=300,
+    code += "\nimport sys\nprint(' '.join(sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
                          env={"PYTHONPATH": SRC, "PATH": "/usr/bin:/bin"})
     assert out.returncode == 0, out.stderr
     return set(out.stdout.split())

@@ -76,6 +76,11 @@ def accepts(function: Callable, name: str) -> bool:
     return name in inspect.signature(function).parameters
 
 
+def _progress_for(function: Callable, progress: bool) -> dict:
+    """``{"progress": progress}`` for a stage that offers progress bars, else nothing."""
+    return {"progress": progress} if accepts(function, "progress") else {}
+
+
 def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], None] = print,
                 progress: bool = False, **fit_kwargs):
     """The trial table of a folder of trajectories, written to ``out``
@@ -83,9 +88,8 @@ def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], Non
     the stage offers one)."""
     from .kinematics import trial_table_from_folder
 
-    if accepts(trial_table_from_folder, "progress"):
-        fit_kwargs["progress"] = progress
-    return trial_table_from_folder(folder, experiment, out, log=log, **fit_kwargs)
+    return trial_table_from_folder(folder, experiment, out, log=log, **fit_kwargs,
+                                   **_progress_for(trial_table_from_folder, progress))
 
 
 def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
@@ -228,7 +232,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     times["inference"] = time.perf_counter() - start
 
     start = _stage(3, "propagation of the posterior", log)
-    prop = propagate(result)
+    prop = propagate(result, **_progress_for(propagate, settings["progress"]))
     write_propagation(prop, stage)
     times["propagation"] = time.perf_counter() - start
     return result, prop
@@ -267,7 +271,8 @@ def _draw(result, prop, stage: Path, times: dict, log, record: dict) -> Path:
 
 
 def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
-                  log: Callable[[str], None] = lambda message: None) -> Path:
+                  log: Callable[[str], None] = lambda message: None,
+                  progress: bool = False) -> Path:
     """Redraw the figures and rewrite ``report.html`` of a run folder from its files
     (propagating the posterior first if the folder has no propagation yet). Every file is
     checked first, and a damaged one is named; the folder changes only when all is done."""
@@ -288,7 +293,7 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
             from .propagation import propagate, write_propagation
 
             log("propagating the posterior ...")
-            prop = propagate(result)
+            prop = propagate(result, **_progress_for(propagate, progress))
             written += write_propagation(prop, stage).values()
         log("figures ...")
         figures = make_figures(result, prop, stage, truth)

@@ -46,9 +46,10 @@ CAPTIONS = {
 
 
 RUN_FILES = ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE)
-_SUMMARY_KEYS: dict[str, type | tuple[type, ...]] = {"parameters": dict, "likelihood": str, "sampler": str, "seed": int,
-                 "sampler_settings": dict, "regimes": dict, "warnings": list,
-                 "likelihood_details": dict, "seconds": (int, float)}
+_SUMMARY_KEYS: dict[str, type | tuple[type, ...]] = {
+    "parameters": dict, "likelihood": str, "sampler": str, "seed": int,
+    "sampler_settings": dict, "regimes": dict, "warnings": list, "likelihood_details": dict,
+    "seconds": (int, float)}
 _RERUN = "run `bouncebayes infer` or `bouncebayes run` again to make it"
 
 
