@@ -10,6 +10,9 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
+	# compile the numerical kernels once (numba caches them on disk): the first run is then
+	# as fast as any later one
+	$(BIN)/bouncebayes warmup
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -99,3 +99,221 @@ def test_kinematics_on_an_empty_folder_is_an_error(tmp_path, capsys):
     assert main(["kinematics", str(tmp_path), "--experiment", str(EXAMPLE), "--out",
                  str(tmp_path / "t.csv")]) == 2
     assert "bouncebayes kinematics: error:" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- start-up and API
+
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+HEAVY = ("cv2", "arviz", "matplotlib", "xarray", "emcee", "h5py")
+
+
+def _modules_after(code: str) -> set[str]:
+    """The modules a fresh interpreter has loaded after running ``code``."""
+    code += "\nimport sys\nprint(' '.join(sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+                         env={"PYTHONPATH": SRC, "PATH": "/usr/bin:/bin"})
+    assert out.returncode == 0, out.stderr
+    return set(out.stdout.split())
+
+
+def test_help_and_simulate_do_not_import_the_heavy_libraries():
+    help_modules = _modules_after("import contextlib, io\nfrom bouncebayes.cli import main\n"
+                                  "with contextlib.suppress(SystemExit), "
+                                  "contextlib.redirect_stdout(io.StringIO()):\n"
+                                  "    main(['--help'])")
+    assert not help_modules & {*HEAVY, "numba", "numpy", "scipy"}
+    simulate = _modules_after("import contextlib, io\nfrom bouncebayes.cli import main\n"
+                              "with contextlib.redirect_stdout(io.StringIO()):\n"
+                              "    assert main(['simulate']) == 0")
+    assert not simulate & set(HEAVY)
+
+
+def test_importing_the_package_is_light_and_its_names_load_on_use():
+    modules = _modules_after("import bouncebayes")
+    assert not modules & {*HEAVY, "numba", "numpy", "scipy"}
+    modules = _modules_after("import bouncebayes as bb\nbb.Ball")
+    assert "numba" in modules and not modules & set(HEAVY)
+
+
+def test_the_public_api_is_curated_at_every_level():
+    import importlib
+
+    assert "infer" in bb.__all__ and bb.infer is importlib.import_module(
+        "bouncebayes.inference").infer
+    for name in bb.__all__:
+        assert getattr(bb, name) is not None, name
+    for package in ("model", "data", "inference", "kinematics", "tracking", "cli"):
+        module = importlib.import_module(f"bouncebayes.{package}")
+        public = {n for n, v in vars(module).items() if not n.startswith("_")
+                  and getattr(v, "__module__", module.__name__) != "builtins"
+                  and not isinstance(v, type(module))}
+        assert set(module.__all__) == public, (package, public ^ set(module.__all__))
+        for name in module.__all__:
+            getattr(module, name)
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        bb.nope  # noqa: B018
+
+
+def test_every_sampling_command_has_the_same_sampler_flags():
+    from bouncebayes.cli import build_parser
+    from bouncebayes.cli._common import SAMPLER_FLAGS
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices
+    flags = {name: {s for a in sub[name]._actions for s in a.option_strings}
+             for name in ("infer", "run", "demo")}
+    wanted = {*SAMPLER_FLAGS.values(), "--likelihood", "--sampler", "--seed", "--noise",
+              "--quiet"}
+    for name, options in flags.items():
+        assert wanted <= options, (name, wanted - options)
+
+
+def test_library_argument_names_become_flags_in_messages():
+    from bouncebayes.cli._common import flag_names
+
+    assert flag_names("`burn_in` must be >= 0; raise `grid_points` or `draws`") == (
+        "`--burn-in` must be >= 0; raise `--grid-points` or `--draws`")
+    assert flag_names("`ensemble_thin` must be >= 1") == "`--thin` must be >= 1"
+    assert flag_names("`min_points` and `youngs_modulus`", frozenset({"--min-points"})) == (
+        "`--min-points` and `youngs_modulus`")
+
+
+def test_progress_bars_only_on_a_terminal(monkeypatch):
+    import argparse
+
+    from bouncebayes.cli._common import show_progress
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert show_progress(argparse.Namespace(quiet=False))
+    assert not show_progress(argparse.Namespace(quiet=True))
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False, raising=False)
+    assert not show_progress(argparse.Namespace(quiet=False))
+
+
+def test_infer_asks_for_progress_bars_on_a_terminal_only(monkeypatch, tmp_path, capsys):
+    import bouncebayes.inference
+
+    seen = []
+
+    def spy(*args, progress, **kwargs):
+        seen.append(progress)
+        raise ValueError("stop here")
+
+    monkeypatch.setattr(bouncebayes.inference, "infer", spy)
+    demo = bb.data.demo_campaign()
+    argv = ["infer", str(demo.experiment), str(demo.trials), "--out", str(tmp_path / "o")]
+    assert main(argv) == 2
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert main(argv) == 2 and main([*argv, "--quiet"]) == 2
+    assert seen == [False, True, False]
+
+
+def _command_raising(monkeypatch, exc: BaseException) -> None:
+    import bouncebayes.cli._simulate
+
+    def run(args):
+        raise exc
+
+    monkeypatch.setattr(bouncebayes.cli._simulate, "run", run)
+
+
+@pytest.mark.parametrize("exc, status, line", [
+    (KeyboardInterrupt(), 130, "bouncebayes simulate: stopped; nothing was written"),
+    (MemoryError(), 2, "bouncebayes simulate: error: out of memory; ask for less (fewer draws "
+                       "or grid points, a smaller table) or free memory"),
+    (PermissionError(13, "Permission denied", "/x/y.csv"), 2,
+     "bouncebayes simulate: error: /x/y.csv: Permission denied"),
+    (KeyError("mu"), 2, "bouncebayes simulate: error: unexpected KeyError: 'mu'; this is a bug: "
+                        "please report it with the output of the same command with --traceback"),
+    (ValueError("line one\nline two"), 2, "bouncebayes simulate: error: line one line two"),
+])
+def test_every_failure_is_one_line(monkeypatch, capsys, exc, status, line):
+    _command_raising(monkeypatch, exc)
+    assert main(["simulate"]) == status
+    assert capsys.readouterr().err == line + "\n"
+
+
+def test_traceback_flag_keeps_the_traceback(monkeypatch):
+    _command_raising(monkeypatch, KeyError("mu"))
+    with pytest.raises(KeyError):
+        main(["--traceback", "simulate"])
+
+
+def test_a_stopped_command_names_the_output_it_left_intact(monkeypatch, capsys, tmp_path):
+    import bouncebayes.cli._synth
+
+    def run(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bouncebayes.cli._synth, "run", run)
+    assert main(["synth", str(EXAMPLE), "--out", str(tmp_path)]) == 130
+    assert capsys.readouterr().err == (f"bouncebayes synth: stopped; earlier results in "
+                                       f"{tmp_path} are intact\n")
+
+
+def test_warnings_reach_the_user_as_one_line(monkeypatch, capsys):
+    import warnings
+
+    import bouncebayes.cli._simulate
+
+    def run(args):
+        warnings.warn("draws pile against `burn_in`\nsecond line", UserWarning, stacklevel=1)
+        return 0
+
+    monkeypatch.setattr(bouncebayes.cli._simulate, "run", run)
+    with warnings.catch_warnings():
+        warnings.simplefilter("default")
+        assert main(["simulate"]) == 0
+    assert capsys.readouterr().err == ("bouncebayes simulate: warning: draws pile against "
+                                       "`--burn-in` second line\n")
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0 and capsys.readouterr().out == f"bouncebayes {bb.__version__}\n"
+
+
+# --------------------------------------------------------------------------- outputs
+
+def test_outputs_carry_the_command_line_that_made_them(tmp_path, capsys):
+    from bouncebayes._provenance import read_provenance
+
+    out = tmp_path / "campaign"
+    argv = ["synth", str(EXAMPLE), "--n", "6", "--seed", "4", "--out", str(out)]
+    assert main(argv) == 0
+    for name in ("trials.csv", "truth.json"):
+        record = read_provenance(out / name)
+        assert record["command"] == "bouncebayes " + " ".join(argv) and record["seed"] == 4
+    trajectory = next((out / "trajectories").glob("*.csv"))
+    assert trajectory.read_text().startswith("t,x,y\n")  # left for other programs as it is
+    table = tmp_path / "kin.csv"
+    assert main(["kinematics", str(out / "trajectories"), "--experiment", str(EXAMPLE),
+                 "--out", str(table)]) == 0
+    assert read_provenance(table)["inputs"]["trajectories"]["files"] == 6
+    assert bb.load_trials(table, bb.load_experiment(EXAMPLE)).n == 6
+
+
+def test_infer_replaces_its_outputs_together_and_stamps_them(tmp_path, capsys):
+    from bouncebayes._provenance import read_provenance
+
+    demo = bb.data.demo_campaign()
+    out = tmp_path / "out"
+    out.mkdir()
+    for stale in ("propagation.json", "report.html", "grid.npz"):  # of an earlier posterior
+        (out / stale).write_text("old")
+    (out / "mine.txt").write_text("kept")
+    argv = ["infer", str(demo.experiment), str(demo.trials), "--out", str(out), "--draws",
+            "400", "--chains", "2", "--seed", "3"]
+    assert main(argv) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["mine.txt", "posterior.nc", "summary.json"]
+    for name in ("posterior.nc", "summary.json"):
+        record = read_provenance(out / name)
+        assert record["seed"] == 3 and record["config"]["sampler_config"]["draws"] == 400
+        assert record["inputs"]["trials"]["sha256"] == bb.load_trials(
+            demo.trials, bb.load_experiment(demo.experiment)).sha256
+    assert f"summary: {out / 'summary.json'}" in capsys.readouterr().out

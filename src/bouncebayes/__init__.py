@@ -4,28 +4,67 @@ The public API, stage by stage (see the README):
 
 - :mod:`bouncebayes.model`: the forward model (:func:`simulate`, :class:`Ball`, ...);
 - :mod:`bouncebayes.data`: experiment files, priors, trial tables, synthetic campaigns;
+- :mod:`bouncebayes.tracking`: ball tracking in high-speed video;
 - :mod:`bouncebayes.kinematics`: tracked trajectories to incidence and rebound kinematics;
-- :mod:`bouncebayes.density`: kernel density estimates and the data summary.
+- :mod:`bouncebayes.density`: kernel density estimates and the data summary;
+- :mod:`bouncebayes.inference`: the posterior (:func:`infer`);
+- :mod:`bouncebayes.propagation`, :mod:`bouncebayes.plots`, :mod:`bouncebayes.report`,
+  :mod:`bouncebayes.pipeline` (``run``, the whole job), :mod:`bouncebayes.cli`.
+
+Importing the package is light: each name below is imported from its stage on first use
+(PEP 562), so ``import bouncebayes`` loads neither numba nor SciPy until a stage needs them.
 """
 
-from ._version import __version__ as __version__
-from .data import Experiment as Experiment
-from .data import Trials as Trials
-from .data import load_experiment as load_experiment
-from .data import load_trials as load_trials
-from .data import synthesize as synthesize
-from .density import rebound_density as rebound_density
-from .density import summarize as summarize
-from .kinematics import fit_kinematics as fit_kinematics
-from .kinematics import kinematics_from_folder as kinematics_from_folder
-from .kinematics import read_trajectory as read_trajectory
-from .model import PAPER_BALL as PAPER_BALL
-from .model import Ball as Ball
-from .model import Bounces as Bounces
-from .model import SimulationWarning as SimulationWarning
-from .model import SolverConfig as SolverConfig
-from .model import Status as Status
-from .model import hertz_elastic_impact as hertz_elastic_impact
-from .model import rigid_body_rebound as rigid_body_rebound
-from .model import simulate as simulate
-from .model import simulate_history as simulate_history
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# public name -> the sub-module that defines it
+_LAZY = {
+    "Ball": "model", "PAPER_BALL": "model", "Bounces": "model", "SimulationWarning": "model",
+    "SolverConfig": "model", "Status": "model", "hertz_elastic_impact": "model",
+    "rigid_body_rebound": "model", "simulate": "model", "simulate_history": "model",
+    "Experiment": "data", "Trials": "data", "load_experiment": "data", "load_trials": "data",
+    "synthesize": "data",
+    "rebound_density": "density", "summarize": "density",
+    "fit_kinematics": "kinematics", "kinematics_from_folder": "kinematics",
+    "read_trajectory": "kinematics",
+    "InferenceResult": "inference", "SamplerConfig": "inference", "infer": "inference",
+}
+_SUBMODULES = ("model", "data", "tracking", "kinematics", "density", "inference",
+               "propagation", "plots", "report", "pipeline", "cli")
+
+__all__ = ["__version__", "Ball", "Bounces", "Experiment", "InferenceResult", "PAPER_BALL",
+           "SamplerConfig", "SimulationWarning", "SolverConfig", "Status", "Trials",
+           "fit_kinematics", "hertz_elastic_impact", "infer", "kinematics_from_folder",
+           "load_experiment", "load_trials", "read_trajectory", "rebound_density",
+           "rigid_body_rebound", "simulate", "simulate_history", "summarize", "synthesize"]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "__version__":  # importlib.metadata costs a quarter of a second: on demand
+        from ._version import __version__
+
+        return __version__
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value  # later look-ups do not come back here
+        return value
+    if name in _SUBMODULES:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'bouncebayes' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY, *_SUBMODULES})
+
+
+if TYPE_CHECKING:  # what static checkers and IDEs see
+    from ._version import __version__
+    from .data import Experiment, Trials, load_experiment, load_trials, synthesize
+    from .density import rebound_density, summarize
+    from .inference import InferenceResult, SamplerConfig, infer
+    from .kinematics import fit_kinematics, kinematics_from_folder, read_trajectory
+    from .model import (PAPER_BALL, Ball, Bounces, SimulationWarning, SolverConfig, Status,
+                        hertz_elastic_impact, rigid_body_rebound, simulate, simulate_history)

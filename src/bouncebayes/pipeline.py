@@ -1,22 +1,35 @@
 """The whole job: data (trial table, trajectories or videos) -> kinematics -> inference ->
-propagation -> figures -> report, every result in one run folder."""
+propagation -> figures -> report, every result in one run folder.
+
+A run folder changes all at once: every stage writes into a staging folder beside it, and the
+staging folder replaces the run folder only when every stage has succeeded (see
+:func:`bouncebayes._io.staged_output`). A run that fails or is stopped leaves the earlier results
+exactly as they were; files of the user's own in an earlier run folder are kept.
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 import shutil
+import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ._errors import InputFileError
-from ._io import write_text
-from .data import load_experiment, load_trials
-from .inference import SamplerConfig, format_table, infer, write_outputs
-from .propagation import propagate, write_propagation
-from .report import EXPERIMENT_FILE, TRIALS_FILE, load_truth, make_figures, render_report
+from ._io import is_temporary, link_or_copy, staged_output
+from ._provenance import provenance, stamp, stamp_tree
 
 TRAJECTORY_SUFFIXES = (".csv", ".txt")
+EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
+# what a run writes; anything else found in an earlier run folder is the user's, and kept
+RUN_ENTRIES = frozenset({"report.html", "summary.json", "posterior.nc", "grid.npz",
+                         "propagation.json", "propagation.npz", "figures", "tracking",
+                         "trajectories", EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE})
+STAGES = ("data", "inference", "propagation", "figures", "report")
 
 
 @dataclass(frozen=True)
@@ -30,7 +43,7 @@ class RunOutcome:
     stage_seconds: dict
 
 
-def _video_inputs(folder: Path) -> list[Path]:
+def video_inputs(folder: Path) -> list[Path]:
     """The videos of a folder: video files, and sub-folders of image frames."""
     from .tracking import IMAGE_SUFFIXES, VIDEO_SUFFIXES
 
@@ -42,122 +55,307 @@ def _video_inputs(folder: Path) -> list[Path]:
 
 def data_kind(data: Path) -> str:
     """``"table"`` (a CSV file), ``"trajectories"`` or ``"videos"`` (a folder)."""
+    data = Path(data)
     if data.is_file():
         return "table"
     if not data.is_dir():
         raise InputFileError(data, "no such file or folder (expected a trial table, or a folder "
                                    "of trajectory files or videos)")
-    if _video_inputs(data):
-        return "videos"
-    if any(p.is_file() and p.suffix.lower() in TRAJECTORY_SUFFIXES for p in data.iterdir()):
-        return "trajectories"
+    try:
+        if video_inputs(data):
+            return "videos"
+        if any(p.is_file() and p.suffix.lower() in TRAJECTORY_SUFFIXES for p in data.iterdir()):
+            return "trajectories"
+    except OSError as exc:
+        raise InputFileError(data, f"cannot read the folder ({exc.strerror})") from None
     raise InputFileError(data, "holds neither trajectory files (*.csv, *.txt) nor videos")
 
 
-def _trials_from_data(data: Path, kind: str, experiment, out: Path, log,
-                      fps: float | None = None) -> Path:
-    """The trial table of the run folder, made from the data as needed."""
+def accepts(function: Callable, name: str) -> bool:
+    """Whether ``function`` takes the keyword ``name`` (stages gain ``progress=`` one by one)."""
+    return name in inspect.signature(function).parameters
+
+
+def _progress_for(function: Callable, progress: bool) -> dict:
+    """``{"progress": progress}`` for a stage that offers progress bars, else nothing."""
+    return {"progress": progress} if accepts(function, "progress") else {}
+
+
+def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], None] = print,
+                progress: bool = False, **fit_kwargs):
+    """The trial table of a folder of trajectories, written to ``out``
+    (:func:`bouncebayes.kinematics.trial_table_from_folder`, with a progress bar if asked and
+    the stage offers one)."""
     from .kinematics import trial_table_from_folder
 
-    table = out / TRIALS_FILE
-    if kind == "table":
-        write_text(table, data.read_text(encoding="utf-8"))
-        return table
-    folder = data
-    if kind == "videos":
-        folder = _track_videos(data, experiment, out, log, fps)
-    trial_table_from_folder(folder, experiment, table, log=log)
-    return table
+    return trial_table_from_folder(folder, experiment, out, log=log, **fit_kwargs,
+                                   **_progress_for(trial_table_from_folder, progress))
 
 
-def _track_videos(data: Path, experiment, out: Path, log, fps: float | None) -> Path:
-    """Track every video (or image-sequence folder) of ``data`` into ``out/trajectories``,
-    with an overlay image per video in ``out/tracking``; unusable videos are listed."""
+def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
+                  progress: bool) -> Path:
+    """Track every video (or image-sequence folder) of ``data`` into ``stage/trajectories``,
+    with an overlay image per video in ``stage/tracking``; unusable videos are listed."""
     from .tracking import overlay_image, track_video, write_trajectory_csv
 
-    inputs = _video_inputs(data)
-    folder = out / "trajectories"
-    tracked_any = False
-    for path in inputs:
+    inputs = video_inputs(data)
+    folder = stage / "trajectories"
+    tracked = 0
+    for path in _bar(inputs, progress, "videos"):
         try:
-            tracked = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter)
+            video = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter)
         except InputFileError as exc:
             log(f"  skipped: {exc}")
             continue
-        name = tracked.source.name
-        write_trajectory_csv(folder / f"{name}.csv", *tracked.trajectory)
-        overlay_image(tracked.source.frames, tracked.track,
-                      out / "tracking" / f"{name}.overlay.png",
-                      calibration=tracked.calibration, surface=tracked.surface, title=name)
-        tracked_any = True
-    if not tracked_any:
+        name = video.source.name
+        write_trajectory_csv(folder / f"{name}.csv", *video.trajectory)
+        overlay_image(video.source.frames, video.track, stage / "tracking" / f"{name}.overlay.png",
+                      calibration=video.calibration, surface=video.surface, title=name)
+        tracked += 1
+    if not tracked:
         raise InputFileError(data, "no video could be tracked (each is listed above with the "
                                    "reason)")
-    log(f"tracked {len(list(folder.glob('*.csv')))} of {len(inputs)} videos")
+    log(f"tracked {tracked} of {len(inputs)} videos")
     return folder
 
 
+def _bar(items: list, show: bool, desc: str):
+    if not show or len(items) < 2:
+        return items
+    from tqdm.auto import tqdm
+
+    return tqdm(items, desc=desc, leave=False)
+
+
+def check_run_folder(out: Path) -> None:
+    """``out`` may be a run folder: missing, empty, or holding an earlier run."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"`out` {out}: is a file; expected a run folder")
+    if out.is_dir():
+        entries = [p.name for p in out.iterdir() if not p.name.startswith(".")]
+        if entries and not {"summary.json", "report.html"} & set(entries):
+            raise ValueError(f"`out` {out}: holds {len(entries)} entries (e.g. {entries[0]!r}) "
+                             f"and is not a bouncebayes run folder (no summary.json); give a "
+                             f"new or empty folder, or an earlier run folder")
+
+
+def carry_over(old: Path, stage: Path, log: Callable[[str], None]) -> list[str]:
+    """Hard-link (or copy) into ``stage`` the entries of the earlier run folder ``old`` that
+    no run writes: the user's own files survive the swap. Returns their names."""
+    if not old.is_dir():
+        return []
+    kept = []
+    for entry in sorted(old.iterdir()):
+        if entry.name in RUN_ENTRIES or (stage / entry.name).exists() or entry == stage \
+                or is_temporary(entry.name):
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.copytree(entry, stage / entry.name, copy_function=link_or_copy,
+                            symlinks=True)
+        else:
+            link_or_copy(entry, stage / entry.name)
+        kept.append(entry.name)
+    if kept:
+        log(f"kept {len(kept)} of your entries in {old}: {', '.join(kept)}")
+    return kept
+
+
 def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
-        likelihood: str = "gaussian", sampler: str = "mh", seed: int = 0,
-        config: SamplerConfig | None = None, progress: bool = False,
-        log: Callable[[str], None] = print, truth: Path | None = None,
-        fps: float | None = None) -> RunOutcome:
-    """Run every stage; each writes its results atomically into ``out``. ``fps``: the frame
-    rate of videos (required for image-sequence folders; overrides a video file's)."""
-    out, data = Path(out), Path(data)
-    experiment_path = Path(experiment_path)
-    times = {}
+        likelihood: str = "gaussian", sampler: str = "mh", seed: int = 0, config=None,
+        noise: str = "auto", progress: bool = False, log: Callable[[str], None] = print,
+        truth: str | Path | None = None, fps: float | None = None,
+        argv: Sequence[str] | None = None) -> RunOutcome:
+    """Run every stage into the run folder ``out``, which changes only if all succeed.
 
-    def stage(k, name):
-        log(f"[{k}/5] {name} ...")
-        return time.perf_counter()
+    Arguments:
+        experiment_path: the experiment file (TOML).
+        data: a trial table (CSV), or a folder of trajectory files or of videos.
+        out: the run folder: missing, empty, or an earlier run's.
+        likelihood: as :func:`bouncebayes.inference.infer`.
+        sampler: as :func:`bouncebayes.inference.infer`.
+        seed: as :func:`bouncebayes.inference.infer`; recorded in every file.
+        config: the sampler settings (:class:`bouncebayes.inference.SamplerConfig`).
+        noise: as :func:`bouncebayes.inference.infer`.
+        progress: progress bars for the long stages.
+        log: receives one line per stage and the stages' messages.
+        truth: a synthetic campaign's ``truth.json``, copied in and shown in the report.
+        fps: the frame rate of videos (required for image-sequence folders; overrides a video
+            file's).
+        argv: the command line, recorded in the provenance of every file.
+    """
+    out, data, experiment_path = Path(out), Path(data), Path(experiment_path)
+    check_run_folder(out)
+    record = provenance(inputs={"experiment": experiment_path, "data": data, "truth": truth},
+                        seed=seed, argv=argv, config={
+                            "likelihood": likelihood, "sampler": sampler, "noise": noise,
+                            "sampler_config": config, "fps": fps})
+    settings = dict(likelihood=likelihood, sampler=sampler, seed=seed, config=config,
+                    noise=noise, progress=progress)
+    times: dict[str, float] = {}
+    with staged_output(out, "folder") as stage:
+        result, prop = _analyse(experiment_path, data, stage, out, settings, times, log, fps,
+                                truth)
+        report = _draw(result, prop, stage, times, log, record)
+        stamp_tree(stage, record)
+        carry_over(out, stage, log)
+    from .inference import format_table
 
-    start = stage(1, "data and kinematics")
+    return RunOutcome(out, out / report.name, format_table(result), prop.match["verdict"],
+                      times)
+
+
+def _stage(k: int, name: str, log) -> float:
+    log(f"[{k}/{len(STAGES)}] {name} ...")
+    return time.perf_counter()
+
+
+def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings: dict,
+             times: dict, log, fps, truth):
+    """Stages 1-3: the trial table, the posterior, its propagation (written into ``stage``)."""
+    from .data import load_experiment
+    from .inference import infer, write_outputs
+    from .propagation import propagate, write_propagation
+
+    start = _stage(1, "data and kinematics", log)
     experiment = load_experiment(experiment_path)
-    kind = data_kind(data)
-    table = _trials_from_data(data, kind, experiment, out, log, fps)
-    write_text(out / EXPERIMENT_FILE, experiment_path.read_text(encoding="utf-8"))
+    trials = _trials(data, experiment, stage, out, log, fps, settings["progress"])
+    shutil.copyfile(experiment_path, stage / EXPERIMENT_FILE)
     if truth is not None:
-        shutil.copyfile(truth, out / "truth.json")
-    experiment = load_experiment(out / EXPERIMENT_FILE)
-    trials = load_trials(table, experiment)
+        shutil.copyfile(truth, stage / TRUTH_FILE)
     times["data"] = time.perf_counter() - start
 
-    start = stage(2, f"inference ({likelihood} likelihood, {sampler} sampler)")
-    result = infer(experiment, trials, likelihood=likelihood, sampler=sampler, seed=seed,
-                   config=config, progress=progress)
-    write_outputs(result, out)
+    start = _stage(2, f"inference ({settings['likelihood']} likelihood, {settings['sampler']} "
+                      f"sampler)", log)
+    result = infer(experiment, trials, **settings)
+    write_outputs(result, stage)
     times["inference"] = time.perf_counter() - start
 
-    start = stage(3, "propagation of the posterior")
-    prop = propagate(result)
-    write_propagation(prop, out)
+    start = _stage(3, "propagation of the posterior", log)
+    prop = propagate(result, **_progress_for(propagate, settings["progress"]))
+    write_propagation(prop, stage)
     times["propagation"] = time.perf_counter() - start
+    return result, prop
 
-    start = stage(4, "figures")
-    truth_values = load_truth(out)
-    figures = make_figures(result, prop, out, truth_values)
+
+def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
+    """The run's trials, and its copy of the trial table in ``stage``."""
+    from .data import load_trials
+
+    kind = data_kind(data)
+    table = stage / TRIALS_FILE
+    if kind == "table":
+        shutil.copyfile(data, table)
+        return load_trials(data, experiment)
+    folder = _track_videos(data, experiment, stage, log, fps, progress) \
+        if kind == "videos" else data
+    trial_table(folder, experiment, table, log=log, progress=progress)
+    trials = load_trials(table, experiment)
+    return dataclasses.replace(trials, source=str(out / TRIALS_FILE))  # not the staging path
+
+
+def _draw(result, prop, stage: Path, times: dict, log, record: dict) -> Path:
+    """Stages 4-5: figures and the report (written into ``stage``)."""
+    from .report import load_truth, make_figures, render_report
+
+    start = _stage(4, "figures", log)
+    truth_values = load_truth(stage)
+    figures = make_figures(result, prop, stage, truth_values)
     times["figures"] = time.perf_counter() - start
 
-    start = stage(5, "report")
-    report = render_report(result, prop.summary(), figures, out, truth_values)
+    start = _stage(5, "report", log)
+    report = render_report(result, prop.summary(), figures, stage, truth_values,
+                           provenance=record)
     times["report"] = time.perf_counter() - start
-    return RunOutcome(out, report, format_table(result), prop.match["verdict"], times)
+    return report
 
 
-def report_folder(folder: str | Path) -> Path:
+def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
+                  log: Callable[[str], None] = lambda message: None,
+                  progress: bool = False) -> Path:
     """Redraw the figures and rewrite ``report.html`` of a run folder from its files
-    (propagating the posterior first if the folder has no propagation yet)."""
-    from .propagation import load_propagation
-    from .report import load_result
+    (propagating the posterior first if the folder has no propagation yet). Every file is
+    checked first, and a damaged one is named; the folder changes only when all is done."""
+    from .report import load_result, load_run_propagation, load_truth, make_figures, \
+        render_report
 
     folder = Path(folder)
     result = load_result(folder)
-    if (folder / "propagation.json").is_file() and (folder / "propagation.npz").is_file():
-        prop = load_propagation(folder)
-    else:
-        prop = propagate(result)
-        write_propagation(prop, folder)
+    prop = load_run_propagation(folder)
     truth = load_truth(folder)
-    figures = make_figures(result, prop, folder, truth)
-    return render_report(result, prop.summary(), figures, folder, truth)
+    record = provenance(inputs={"run_folder": folder}, argv=argv)
+    shown = _run_provenance(folder) or record
+    with staged_output(folder, "folder", start_from=folder) as stage:
+        for name in ("figures", "report.html"):
+            _remove(stage / name)
+        written: list[Path] = []
+        if prop is None:
+            from .propagation import propagate, write_propagation
+
+            log("propagating the posterior ...")
+            prop = propagate(result, **_progress_for(propagate, progress))
+            written += write_propagation(prop, stage).values()
+        log("figures ...")
+        figures = make_figures(result, prop, stage, truth)
+        report = render_report(result, prop.summary(), figures, stage, truth,
+                               provenance=shown)
+        for path in [*written, *(stage / "figures").rglob("*")]:
+            stamp(path, record)
+    return folder / report.name
+
+
+def _run_provenance(folder: Path) -> dict | None:
+    from ._provenance import read_provenance
+
+    try:
+        return read_provenance(folder / "summary.json")
+    except (OSError, ValueError):
+        return None
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir():
+        shutil.rmtree(path)
+    elif path.exists():
+        path.unlink()
+
+
+def warmup(log: Callable[[str], None] = print) -> float:
+    """Compile and cache every numba kernel a run uses, on a tiny problem; returns seconds.
+
+    Numba caches compiled kernels on disk (``cache=True``); the first run after an install
+    otherwise spends most of its time compiling."""
+    from .data import demo_campaign
+    from .inference import SamplerConfig
+
+    start = time.perf_counter()
+    demo = demo_campaign()
+    config = SamplerConfig(draws=200, chains=2, burn_in=20, walkers=8, ensemble_burn_in=10,
+                           grid_points=16)
+    with tempfile.TemporaryDirectory(prefix="bouncebayes-warmup-") as tmp:
+        for likelihood, sampler in _WARMUP_CASES:
+            log(f"compiling: {likelihood} likelihood, {sampler} sampler ...")
+            _warm_once(demo, Path(tmp) / f"{likelihood}-{sampler}", likelihood, sampler,
+                       config)
+    return time.perf_counter() - start
+
+
+_WARMUP_CASES = (("gaussian", "mh"), ("kde", "mh"), ("consistent", "grid"),
+                 ("gaussian", "ensemble"))
+
+
+def _warm_once(demo, out: Path, likelihood: str, sampler: str, config: Any) -> None:
+    from .data import load_experiment, load_trials
+    from .inference import infer
+    from .propagation import propagate
+
+    experiment = load_experiment(demo.experiment)
+    out.mkdir(parents=True)
+    if (likelihood, sampler) == _WARMUP_CASES[0]:  # kinematics and the ODE path once
+        trial_table(demo.trajectories, experiment, out / TRIALS_FILE, log=lambda m: None)
+        trials = load_trials(out / TRIALS_FILE, experiment)
+    else:
+        trials = load_trials(demo.trials, experiment)
+    result = infer(experiment, trials, likelihood=likelihood, sampler=sampler, config=config)
+    if sampler == "mh":
+        propagate(result, n_draws=50)

@@ -3,25 +3,26 @@
 from __future__ import annotations
 
 import base64
-import datetime as dt
 import html
 import json
-import platform
+import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ._errors import InputFileError
 from ._io import write_text
-from ._version import __version__
+from ._provenance import provenance as make_provenance
+from ._provenance import provenance_rows
 from .data import load_experiment, load_trials
 from .inference import InferenceResult, LogPosterior, SamplerConfig
 from .inference._infer import SAMPLER_MEANINGS
 from .inference._likelihood import MEANINGS, noise_priors
 from .inference._samplers import Draws
 from .inference._summary import ParameterSummary, import_arviz
+from .pipeline import EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE
 
-EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
 
 CAPTIONS = {
     "data": "Measured rebound speed and angle: histograms and Gaussian kernel density "
@@ -44,34 +45,168 @@ CAPTIONS = {
 }
 
 
+RUN_FILES = ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE)
+_SUMMARY_KEYS: dict[str, type | tuple[type, ...]] = {
+    "parameters": dict, "likelihood": str, "sampler": str, "seed": int,
+    "sampler_settings": dict, "regimes": dict, "warnings": list, "likelihood_details": dict,
+    "seconds": (int, float)}
+_RERUN = "run `bouncebayes infer` or `bouncebayes run` again to make it"
+
+
 def load_result(folder: str | Path) -> InferenceResult:
-    """Rebuild the :class:`InferenceResult` of a run folder (without its likelihood object)."""
+    """Rebuild the :class:`InferenceResult` of a run folder (without its likelihood object).
+
+    Raises:
+        InputFileError: a file is missing or damaged; the message names it.
+    """
     folder = Path(folder)
-    for name in ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE):
+    if not folder.is_dir():
+        raise InputFileError(folder, "no such run folder" if not folder.exists() else
+                             "is a file; expected a run folder")
+    for name in RUN_FILES:
         if not (folder / name).is_file():
             raise InputFileError(folder, f"not a bouncebayes run folder: {name} is missing "
                                          f"(run `bouncebayes run` or `bouncebayes infer` first)")
-    summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+    summary = load_summary(folder / "summary.json")
     experiment = load_experiment(folder / EXPERIMENT_FILE)
     trials = load_trials(folder / TRIALS_FILE, experiment)
-    az = import_arviz()
-    idata = az.from_netcdf(str(folder / "posterior.nc"))
     names = tuple(summary["parameters"])
-    samples = np.stack([idata.posterior[n].values for n in names], axis=-1)
-    stats = {k: idata.sample_stats[k].values for k in idata.sample_stats.data_vars}
+    samples, stats = load_posterior(folder / "posterior.nc", names)
+    _check_grid(folder / "grid.npz")
     extra = noise_priors(trials)
     priors = tuple(experiment.priors[n] if n in experiment.priors else extra[n] for n in names)
     units = tuple(p["unit"] for p in summary["parameters"].values())
-    params = tuple(ParameterSummary(**{k: (tuple(v) if k in ("ci90", "modes") else v)
-                                       for k, v in p.items() if k != "paper_form"})
-                   for p in summary["parameters"].values())
+    params = _parameter_summaries(folder / "summary.json", summary["parameters"])
     settings = {k: v for k, v in summary["sampler_settings"].items() if k != "result"}
+    try:
+        config = SamplerConfig(**settings)
+    except (TypeError, ValueError) as exc:
+        raise InputFileError(folder / "summary.json", f"damaged: {exc}",
+                             field="sampler_settings") from None
     return InferenceResult(experiment, trials, summary["likelihood"], summary["sampler"],
-                           summary["seed"], SamplerConfig(**settings),
-                           LogPosterior(names, priors, units, None),
-                           Draws(samples, stats, summary["sampler_settings"]["result"]), params,
-                           summary["regimes"], tuple(summary["warnings"]),
+                           summary["seed"], config, LogPosterior(names, priors, units, None),
+                           Draws(samples, stats, summary["sampler_settings"].get("result", {})),
+                           params, summary["regimes"], tuple(summary["warnings"]),
                            summary["likelihood_details"], summary["seconds"])
+
+
+def load_summary(path: Path) -> dict:
+    """``summary.json``, checked for the keys a report needs."""
+    obj = _load_json(path)
+    for key, kind in _SUMMARY_KEYS.items():
+        if key not in obj:
+            raise InputFileError(path, f"damaged: the key is missing; {_RERUN}", field=key)
+        if not isinstance(obj[key], kind) or isinstance(obj[key], bool):
+            raise InputFileError(path, f"damaged: expected {_kind_name(kind)}, got "
+                                       f"{type(obj[key]).__name__}; {_RERUN}", field=key)
+    if not obj["parameters"]:
+        raise InputFileError(path, f"damaged: no parameters; {_RERUN}", field="parameters")
+    return obj
+
+
+def _kind_name(kind) -> str:
+    names = {dict: "an object", str: "a string", int: "an integer", list: "a list"}
+    return "a number" if isinstance(kind, tuple) else names[kind]
+
+
+def _load_json(path: Path) -> dict:
+    """A JSON object from a file; a damaged file is named with the line where it breaks."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputFileError(path, f"cannot be read ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise InputFileError(path, "damaged: not UTF-8 text") from None
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as exc:
+        what = "empty" if not text.strip() else f"not valid JSON ({exc.msg})"
+        raise InputFileError(path, f"damaged: {what}; the file may be truncated",
+                             line=exc.lineno if text.strip() else None) from None
+    if not isinstance(obj, dict):
+        raise InputFileError(path, f"damaged: expected a JSON object, got "
+                                   f"{type(obj).__name__}")
+    return obj
+
+
+def _parameter_summaries(path: Path, parameters: dict) -> tuple[ParameterSummary, ...]:
+    out = []
+    for name, p in parameters.items():
+        try:
+            fields: dict[str, Any] = {k: (tuple(v) if k in ("ci90", "modes") else v)
+                                      for k, v in p.items() if k != "paper_form"}
+            out.append(ParameterSummary(**fields))
+        except (TypeError, AttributeError) as exc:
+            raise InputFileError(path, f"damaged: {exc}; {_RERUN}",
+                                 field=f"parameters.{name}") from None
+    return tuple(out)
+
+
+def load_posterior(path: Path, names: tuple[str, ...]) -> tuple[np.ndarray, dict]:
+    """Draws (chains, draws, d) of ``names`` and the sample statistics of ``posterior.nc``."""
+    try:
+        az = import_arviz()
+        idata = az.from_netcdf(str(path))
+        samples = np.stack([idata.posterior[n].values for n in names], axis=-1)
+        stats = {k: idata.sample_stats[k].values for k in idata.sample_stats.data_vars}
+    except KeyError as exc:
+        raise InputFileError(path, f"damaged: no variable {exc} in the posterior (the summary "
+                                   f"lists {', '.join(names)}); {_RERUN}") from None
+    except Exception as exc:  # any reader failure means a damaged file; name it
+        raise InputFileError(path, f"damaged: cannot be read as NetCDF ({_short(exc)}); the "
+                                   f"file may be empty or truncated; {_RERUN}") from None
+    if samples.ndim != 3 or samples.shape[1] == 0:
+        raise InputFileError(path, f"damaged: the posterior has shape {samples.shape}, "
+                                   f"expected (chains, draws) per parameter; {_RERUN}")
+    return samples, stats
+
+
+def _check_grid(path: Path) -> None:
+    if not path.exists():
+        return
+    try:
+        with open(path, "rb") as fh, np.load(fh) as z:  # our handle: closed even on failure
+            missing = {"density", "centres_0"} - set(z.files)
+    except Exception as exc:  # any reader failure means a damaged file; name it
+        raise InputFileError(path, f"damaged: cannot be read ({_short(exc)}); {_RERUN}") \
+            from None
+    if missing:
+        raise InputFileError(path, f"damaged: no {', '.join(sorted(missing))}; {_RERUN}")
+
+
+def _short(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 160 else text[:157] + "..."
+
+
+def load_run_propagation(folder: str | Path):
+    """The propagation saved in a run folder, or None if it has none (either file missing:
+    the caller computes it again).
+
+    Raises:
+        InputFileError: one of the two files is damaged; the message names it.
+    """
+    from .propagation import load_propagation
+
+    folder = Path(folder)
+    files = [folder / "propagation.json", folder / "propagation.npz"]
+    if not all(p.is_file() for p in files):
+        return None
+    remedy = ("delete propagation.json and propagation.npz and run `bouncebayes report` again "
+              "to compute them")
+    keys = ("posterior_predictive_match", "contact_time_modes_s", "n_failed", "failures",
+            "seed", "notes")
+    summary = _load_json(files[0])
+    for key in keys:
+        if key not in summary:
+            raise InputFileError(files[0], f"damaged: the key is missing; {remedy}", field=key)
+    if not zipfile.is_zipfile(files[1]):
+        raise InputFileError(files[1], f"damaged: not a NumPy archive (truncated?); {remedy}")
+    try:
+        return load_propagation(folder)
+    except Exception as exc:  # any reader failure means a damaged file; name it
+        raise InputFileError(files[1], f"damaged: cannot be read ({_short(exc)}); {remedy}") \
+            from None
 
 
 def load_truth(folder: str | Path) -> dict | None:
@@ -79,7 +214,12 @@ def load_truth(folder: str | Path) -> dict | None:
     path = Path(folder) / TRUTH_FILE
     if not path.is_file():
         return None
-    return json.loads(path.read_text(encoding="utf-8")).get("population")
+    population = _load_json(path).get("population")
+    if population is not None and not (isinstance(population, dict) and all(
+            isinstance(v, int | float) for v in population.values())):
+        raise InputFileError(path, "damaged: expected numbers by parameter name",
+                             field="population")
+    return population
 
 
 def make_figures(result: InferenceResult, prop, folder: str | Path,
@@ -127,8 +267,9 @@ def _table(rows: list[list[str]], header: list[str] | None = None) -> str:
 
 
 def render_report(result: InferenceResult, prop_summary: dict, figures, folder: str | Path,
-                  truth: dict | None = None) -> Path:
-    """Write ``folder/report.html``: one file, figures embedded, opens offline."""
+                  truth: dict | None = None, provenance: dict | None = None) -> Path:
+    """Write ``folder/report.html``: one file, figures embedded, opens offline. ``provenance``:
+    the run's record (:func:`bouncebayes._provenance.provenance`), made here if not given."""
     e, t = result.experiment, result.trials
     s = result.summary()
     params = [[p.name, p.unit or "-", f"{p.mean:.5g}", f"{p.sd:.3g}",
@@ -190,13 +331,10 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
     for i, (key, path) in enumerate(figures, start=1):
         sections.append(f"<figure>{_img(path, CAPTIONS[key])}<figcaption>Figure {i}. "
                         f"{html.escape(CAPTIONS[key])}</figcaption></figure>")
-    sections += ["<h2>Provenance</h2>", _table([
-        ["bouncebayes", __version__], ["python", platform.python_version()],
-        ["numpy", np.__version__], ["created (UTC)", dt.datetime.now(dt.UTC).isoformat(
-            timespec="seconds")],
-        ["seed", str(result.seed)], ["experiment file", f"{e.source} (sha256 {e.text_sha256})"],
-        ["data file", f"{t.source} (sha256 {t.sha256})"],
-        ["sampler settings", json.dumps(result.config.__dict__)]]),
+    if provenance is None:
+        provenance = make_provenance(inputs={"experiment": e.source, "trials": t.source},
+                                     seed=result.seed, config=result.config)
+    sections += ["<h2>Provenance</h2>", _table(provenance_rows(provenance)),
         "<h3>Experiment file</h3>",
         f"<pre>{html.escape(Path(e.source).read_text(encoding='utf-8'))}</pre>"]
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>bouncebayes: "

@@ -36,3 +36,8 @@ from ._synth import synthesize as synthesize
 from ._synth import write_campaign as write_campaign
 from ._demo import DemoCampaign as DemoCampaign
 from ._demo import demo_campaign as demo_campaign
+
+__all__ = ["Campaign", "DemoCampaign", "Experiment", "Incidence", "LogNormal", "LogUniform",
+           "Normal", "PARAMETERS", "Prior", "SECTIONS", "SynthesisError", "Trials", "Uniform",
+           "demo_campaign", "load_experiment", "load_trials", "make_trials", "parse_experiment",
+           "synthesize", "write_campaign", "write_trials"]

@@ -11,3 +11,6 @@ from ._likelihood import MEANINGS as MEANINGS
 from ._posterior import SAMPLERS as SAMPLERS
 from ._posterior import LogPosterior as LogPosterior
 from ._posterior import SamplerConfig as SamplerConfig
+
+__all__ = ["Forward", "InferenceResult", "LIKELIHOODS", "LogPosterior", "MEANINGS", "SAMPLERS",
+           "SamplerConfig", "format_table", "infer", "inference_data", "write_outputs"]

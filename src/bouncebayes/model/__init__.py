@@ -17,3 +17,8 @@ from ._simulate import simulate as simulate
 from ._history import BounceFailed as BounceFailed
 from ._history import BounceHistory as BounceHistory
 from ._history import simulate_history as simulate_history
+
+__all__ = ["Ball", "BounceFailed", "BounceHistory", "Bounces", "HertzImpact", "NORMAL_LAWS",
+           "PAPER_BALL", "RigidBodyRebound", "STANDARD_GRAVITY", "SimulationWarning",
+           "SolverConfig", "Status", "damping_unit", "hertz_elastic_impact", "rigid_body_rebound",
+           "simulate", "simulate_history"]

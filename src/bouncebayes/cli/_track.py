@@ -1,50 +1,46 @@
-"""The ``track`` sub-command: videos in, ``DIR/<name>.csv`` trajectories and overlays out.
+"""``bouncebayes track``: videos in, ``DIR/<name>.csv`` trajectories and overlays out.
 
-``add_track_subcommand(subparsers)`` registers it; ``run_track(args)`` parses the option
-strings, calls :func:`bouncebayes.tracking.track_video` once per input and writes the files.
+:func:`add_track_subcommand` registers the command on a sub-parser collection (for tests that
+build their own parser); :func:`run` parses the option strings, calls
+:func:`bouncebayes.tracking.track_video` once per input and writes the files of each video
+together.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import platform
 import sys
 from collections import Counter
 from pathlib import Path
 
-import cv2
-import numpy as np
+from ._common import (Formatter, add_out_folder, add_quiet, check_out_folder, real, record,
+                      show_progress)
 
-from ._io import write_json
-from ._validate import check_scalar
-from .tracking import (EDGE_FIT, METHOD_NAMES, PAPER_BALL_DIAMETER, POLARITIES, Surface,
-                       TrackedVideo, TrackerConfig, overlay_image, track_video,
-                       write_trajectory_csv)
+HELP = "track the ball in high-speed videos and write plane-frame trajectories"
+DESCRIPTION = ("Find the ball in every frame of each video (sub-pixel; background model + "
+               "coverage centroid, or a disk fit where the ball is cut by the frame edge), "
+               "convert pixels to metres and rotate into the plane frame: x along the surface in "
+               "the direction of travel, y along its outward normal. Writes DIR/<name>.csv "
+               "(t,x,y in s and m, found frames only; t = frame index / fps), "
+               "DIR/<name>.overlay.png (positions over a superposition of frames) and "
+               "DIR/<name>.track.json (per-frame pixels, settings, provenance), the three "
+               "together. Pixel coordinates have the origin at the top-left of the frame.")
 
 
-def add_track_subcommand(subparsers) -> None:
-    p = subparsers.add_parser(
-        "track", formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-        help="track the ball in high-speed videos and write plane-frame trajectories",
-        description="Find the ball in every frame of each video (sub-pixel; background model "
-                    "+ coverage centroid, or a disk fit where the ball is cut by the frame "
-                    "edge), convert pixels to metres and rotate into the plane frame: x along "
-                    "the surface in the direction of travel, y along its outward normal. "
-                    "Writes DIR/<name>.csv (t,x,y in s and m, found frames only; t = frame "
-                    "index / fps), DIR/<name>.overlay.png (positions over a superposition of "
-                    "frames) and DIR/<name>.track.json (per-frame pixels, settings, "
-                    "provenance). Pixel coordinates have the origin at the top-left of the "
-                    "frame.")
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Options of ``track``."""
+    from ..tracking import PAPER_BALL_DIAMETER, POLARITIES, TrackerConfig
+
     p.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                    help="video files (mp4, avi, mov, mkv, ...) or folders of image frames "
                         "(PNG, TIFF, JPEG, BMP; sorted naturally)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
-    p.add_argument("--fps", type=float, metavar="F",
+    add_out_folder(p)
+    p.add_argument("--fps", type=real, metavar="F",
                    help="capture frame rate; overrides the file's (high-speed cameras often "
                         "store a playback rate such as 30); required for image folders")
     scale = p.add_mutually_exclusive_group()
-    scale.add_argument("--ball-diameter", type=float, default=PAPER_BALL_DIAMETER,
+    scale.add_argument("--ball-diameter", type=real, default=PAPER_BALL_DIAMETER,
                        metavar="METRES",
                        help="scale from the ball's diameter and its median fitted radius "
                             "(the paper's ball by default)")
@@ -56,24 +52,32 @@ def add_track_subcommand(subparsers) -> None:
     p.add_argument("--polarity", choices=POLARITIES, default=TrackerConfig.polarity,
                    help="ball brighter or darker than its surroundings, or decide from the "
                         "video")
-    p.add_argument("--min-contrast", type=float, default=TrackerConfig.min_contrast,
+    p.add_argument("--min-contrast", type=real, default=TrackerConfig.min_contrast,
                    metavar="GREY", help="smallest ball-background difference, grey levels "
                                         "(0-255)")
-    p.add_argument("--threshold-sigma", type=float, default=TrackerConfig.threshold_sigma,
+    p.add_argument("--threshold-sigma", type=real, default=TrackerConfig.threshold_sigma,
                    metavar="K", help="detection threshold in noise standard deviations (the "
                                      "threshold is the larger of this and --min-contrast)")
     p.add_argument("--background", type=Path, metavar="IMAGE",
                    help="an image of the scene without the ball; if not given, the per-pixel "
                         "median of frames (give one if the ball rests or moves slowly)")
-    p.set_defaults(run=run_track)
+    add_quiet(p)
+
+
+def add_track_subcommand(subparsers) -> argparse.ArgumentParser:
+    """Register ``track`` on ``subparsers`` (``parser.add_subparsers()``)."""
+    p = subparsers.add_parser("track", help=HELP, description=DESCRIPTION,
+                              formatter_class=Formatter)
+    add_arguments(p)
+    p.set_defaults(run=run)
+    return p
 
 
 def parse_numbers(option: str, text: str, names: tuple[str, ...]) -> list[float]:
     """``"1,2.5,3"`` -> floats, one per name; ``ValueError`` naming the option otherwise."""
     form = ",".join(names)
-    parts = text.split(",")
     try:
-        values = [float(v) for v in parts]
+        values = [float(v) for v in text.split(",")]
     except ValueError:
         values = []
     if len(values) != len(names) or not all(math.isfinite(v) for v in values):
@@ -82,7 +86,11 @@ def parse_numbers(option: str, text: str, names: tuple[str, ...]) -> list[float]
     return values
 
 
-def run_track(args: argparse.Namespace) -> int:
+def _settings(args: argparse.Namespace) -> dict:
+    """The tracker's options, checked, as keyword arguments of ``track_video``."""
+    from .._validate import check_scalar
+    from ..tracking import Surface, TrackerConfig
+
     config = TrackerConfig(polarity=args.polarity, min_contrast=args.min_contrast,
                            threshold_sigma=args.threshold_sigma)
     reference = surface = None
@@ -92,36 +100,71 @@ def run_track(args: argparse.Namespace) -> int:
         reference = ((x1, y1), (x2, y2), metres)
     if args.surface is not None:
         x1, y1, x2, y2 = parse_numbers("--surface", args.surface, ("X1", "Y1", "X2", "Y2"))
-        surface = Surface.from_points((x1, y1), (x2, y2))
+        try:
+            surface = Surface.from_points((x1, y1), (x2, y2))
+        except ValueError as exc:
+            raise ValueError(f"`--surface` {args.surface}: {exc}") from None
     if args.fps is not None:
         check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
     check_scalar("--ball-diameter", args.ball_diameter, unit="m", low=0.0, low_open=True)
+    return dict(fps=args.fps, config=config, ball_diameter=args.ball_diameter,
+                reference=reference, surface=surface, background=args.background)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Track every input; the files of each tracked video are written together."""
+    from .._io import staged_output
+
+    settings = _settings(args)
     check_unique_names(args.inputs)
-    failed = []
-    for path in args.inputs:
-        try:
-            result = track_video(path, fps=args.fps, config=config,
-                                 ball_diameter=args.ball_diameter, reference=reference,
-                                 surface=surface, background=args.background)
-        except ValueError as exc:  # InputFileError included: it names the file
-            if len(args.inputs) == 1:
-                raise
-            print(f"bouncebayes track: skipped {exc}", file=sys.stderr)
-            failed.append(str(path))
-            continue
-        files = write_outputs(result, args)
-        print(summary_line(result, files))
+    check_out_folder("--out", args.out)
+    failed: list[str] = []
+    with staged_output(args.out, "entries") as stage:
+        lines = [_track_one(path, settings, stage, args, failed)
+                 for path in _bar(args.inputs, show_progress(args))]
+    for line in filter(None, lines):
+        print(line)
     if failed:
         raise ValueError(f"{len(failed)} of {len(args.inputs)} inputs could not be tracked "
                          f"({', '.join(failed)}); see the messages above")
     return 0
 
 
+def _bar(inputs: list[Path], show: bool):
+    if not show or len(inputs) < 2:
+        return inputs
+    from tqdm.auto import tqdm
+
+    return tqdm(inputs, desc="videos", unit="video", leave=False)
+
+
+def _track_one(path: Path, settings: dict, stage: Path, args: argparse.Namespace,
+               failed: list[str]) -> str | None:
+    from .._provenance import stamp
+    from ..tracking import track_video
+
+    try:
+        result = track_video(path, **settings)
+    except ValueError as exc:  # InputFileError included: it names the file
+        if len(args.inputs) == 1:
+            raise
+        print(f"bouncebayes track: skipped {exc}", file=sys.stderr)
+        failed.append(str(path))
+        return None
+    files = write_outputs(result, stage, args)
+    provenance = record(args, {"video": path, "background": args.background})
+    for key in ("overlay", "record"):  # the trajectory keeps `t,x,y` as its first line
+        stamp(files[key], provenance)
+    return summary_line(result, {k: args.out / v.name for k, v in files.items()})
+
+
 def output_name(path: Path) -> str:
+    """The ``<name>`` of an input's output files."""
     return path.name if path.is_dir() else path.stem
 
 
 def check_unique_names(inputs: list[Path]) -> None:
+    """Two inputs must not write the same files."""
     names = Counter(output_name(p) for p in inputs)
     clash = [str(p) for p in inputs if names[output_name(p)] > 1]
     if clash:
@@ -129,34 +172,38 @@ def check_unique_names(inputs: list[Path]) -> None:
                          "rename or track them in separate runs")
 
 
-def write_outputs(result: TrackedVideo, args: argparse.Namespace) -> dict[str, Path]:
-    name, out = result.source.name, args.out
-    t, x, y = result.trajectory
+def write_outputs(result, out: Path, args: argparse.Namespace) -> dict[str, Path]:
+    """``<name>.csv``, ``<name>.overlay.png`` and ``<name>.track.json`` of one video."""
+    from .._io import write_json
+    from ..tracking import overlay_image, write_trajectory_csv
+
+    name = result.source.name
     files = {"trajectory": out / f"{name}.csv", "overlay": out / f"{name}.overlay.png",
              "record": out / f"{name}.track.json"}
-    write_trajectory_csv(files["trajectory"], t, x, y)
+    write_trajectory_csv(files["trajectory"], *result.trajectory)
     overlay_image(result.source.frames, result.track, files["overlay"],
                   calibration=result.calibration, surface=result.surface, title=name)
-    write_json(files["record"], record(result, args, files))
+    write_json(files["record"], track_record(result, args))
     return files
 
 
 def _floats(a) -> list:
+    import numpy as np
+
     return [None if not math.isfinite(v) else round(float(v), 6) for v in np.ravel(a)]
 
 
-def record(result: TrackedVideo, args: argparse.Namespace, files: dict[str, Path]) -> dict:
-    """The provenance and per-frame pixel track written beside the trajectory."""
-    from . import __version__
+def track_record(result, args: argparse.Namespace) -> dict:
+    """The per-frame pixel track and the tracker's findings (provenance is stamped on)."""
+    import numpy as np
+
+    from ..tracking import EDGE_FIT, METHOD_NAMES
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, h, w = src.frames.shape
-    options = {k: (str(v) if isinstance(v, Path) else [str(p) for p in v]
-                   if k == "inputs" else v) for k, v in vars(args).items() if k != "run"}
+    name = src.name
     return {
-        "bouncebayes_version": __version__,
         "input": str(src.path),
-        "options": options,
         "frames": n, "width": w, "height": h,
         "fps": src.fps, "fps_source": src.fps_source,
         "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
@@ -173,13 +220,16 @@ def record(result: TrackedVideo, args: argparse.Namespace, files: dict[str, Path
         "per_frame": {"u_px": _floats(tr.centre[:, 0]), "v_px": _floats(tr.centre[:, 1]),
                       "radius_px": _floats(tr.radius), "method": tr.method.tolist(),
                       "methods": {str(k): v for k, v in METHOD_NAMES.items()}},
-        "outputs": {k: str(v) for k, v in files.items()},
-        "environment": {"python": sys.version.split()[0], "numpy": np.__version__,
-                        "opencv": cv2.__version__, "platform": platform.platform()},
+        "outputs": {"trajectory": str(args.out / f"{name}.csv"),
+                    "overlay": str(args.out / f"{name}.overlay.png"),
+                    "record": str(args.out / f"{name}.track.json")},
     }
 
 
-def summary_line(result: TrackedVideo, files: dict[str, Path]) -> str:
+def summary_line(result, files: dict[str, Path]) -> str:
+    """What was found in one video, and where it went."""
+    from ..tracking import EDGE_FIT
+
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, found = len(tr.found), int(tr.found.sum())
     edge = int((tr.method == EDGE_FIT).sum())

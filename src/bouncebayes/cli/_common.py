@@ -1,0 +1,217 @@
+"""What the sub-commands share: the parser and help formatter, option types, output checks,
+sampler flags, progress and provenance at the command-line boundary.
+
+Nothing here imports a pipeline stage at module level: ``bouncebayes --help`` must stay fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any, NoReturn
+
+
+class UserError(Exception):
+    """An error in what the user asked for; printed as one line without a traceback."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (exit status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``PROG: error: MESSAGE`` and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
+
+
+class Formatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Help with every default shown (none for options whose default is 'not given')."""
+
+    def __init__(self, prog: str) -> None:
+        super().__init__(prog, max_help_position=34, width=100)
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        if action.default is None or action.default is False:
+            return action.help
+        return super()._get_help_string(action)
+
+
+# ------------------------------------------------------------------------- option types
+
+def integer(low: int | None = None):
+    """An argparse type: an integer, at least ``low``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer; got {text!r}") from None
+        if low is not None and value < low:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {low}; got {text!r}")
+        return value
+    parse.__name__ = "integer"
+    return parse
+
+
+def real(text: str) -> float:
+    """An argparse type: a finite real number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number; got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number; got {text!r}")
+    return value
+
+
+# ------------------------------------------------------------------------- outputs
+
+def _nearest_existing(path: Path) -> Path:
+    return next(p for p in (path, *path.parents) if os.path.lexists(p))
+
+
+def _check_creatable(option: str, folder: Path) -> None:
+    """``folder`` exists or can be made, and files can be written in it: probed by making (and
+    removing) an empty hidden file, which also catches what permission bits do not (read-only
+    file systems, and a user who may write anywhere)."""
+    anchor = _nearest_existing(folder)
+    if not anchor.is_dir():
+        raise UserError(f"`{option}` {folder}: {anchor} is a file, so no folder can be made "
+                        f"there; give another path")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".bouncebayes-probe-", dir=anchor)
+    except OSError as exc:
+        raise UserError(f"`{option}` {folder}: cannot write in {anchor} "
+                        f"({exc.strerror or exc}); give a folder you can write to") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_out_folder(option: str, path: Path) -> Path:
+    """``path`` can be a command's output folder (it exists as a folder, or can be made)."""
+    if path.exists() and not path.is_dir():
+        raise UserError(f"`{option}` {path}: is a file; expected a folder (made if missing)")
+    _check_creatable(option, path)
+    return path
+
+
+def check_out_file(option: str, path: Path, suffixes: tuple[str, ...] = ()) -> Path:
+    """``path`` can be written as one output file (with one of ``suffixes``, if given)."""
+    if path.is_dir():
+        raise UserError(f"`{option}` {path}: is a folder; expected a file name, e.g. "
+                        f"{path / ('out' + (suffixes[0] if suffixes else ''))}")
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise UserError(f"`{option}` {path}: must end in one of {', '.join(suffixes)}; got "
+                        f"{path.suffix or 'no suffix'!r}")
+    _check_creatable(option, path.parent)
+    return path
+
+
+def add_out_folder(p: argparse.ArgumentParser, help: str = "output folder") -> None:
+    """``--out DIR`` (required)."""
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help=help)
+
+
+def add_quiet(p: argparse.ArgumentParser) -> None:
+    """``--quiet``: no progress bar."""
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bars (they are shown only on a terminal anyway)")
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars on a terminal only: never in pipes, logs or CI."""
+    return not getattr(args, "quiet", False) and sys.stderr.isatty()
+
+
+def record(args: argparse.Namespace, inputs: dict[str, Any], *, seed: int | None = None,
+           config: Any = None) -> dict:
+    """The provenance record of this command (its options are the settings by default)."""
+    from .._provenance import provenance
+
+    if config is None:
+        config = {k: v for k, v in vars(args).items()
+                  if k not in ("run", "argv", "traceback", "command", "flags")}
+    return provenance(inputs=inputs, seed=seed, config=config, argv=getattr(args, "argv", None))
+
+
+def log(message: str) -> None:
+    """Progress messages go to stderr; results to stdout."""
+    print(message, file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------------- sampler flags
+
+# library argument -> the flag that sets it
+SAMPLER_FLAGS = {"draws": "--draws", "chains": "--chains", "burn_in": "--burn-in",
+                 "ensemble_burn_in": "--burn-in", "thin": "--thin", "ensemble_thin": "--thin",
+                 "walkers": "--walkers", "grid_points": "--grid-points"}
+_FLAG_NAME = re.compile(r"`(" + "|".join(sorted(SAMPLER_FLAGS, key=len, reverse=True)) + r")`")
+
+
+def flag_names(text: str, flags: frozenset[str] = frozenset()) -> str:
+    """Library messages name arguments (`` `burn_in` ``); the command line names flags: the
+    sampler settings, and any ``a_b`` whose flag ``--a-b`` is among ``flags``."""
+    text = _FLAG_NAME.sub(lambda m: f"`{SAMPLER_FLAGS[m[1]]}`", text)
+
+    def flag(m: re.Match) -> str:
+        option = "--" + m[1].replace("_", "-")
+        return f"`{option}`" if option in flags else m[0]
+
+    return _SNAKE_NAME.sub(flag, text)
+
+
+_SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)+)`")
+
+
+def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
+    """The flags of every command that samples a posterior (infer, run, demo)."""
+    from ..inference import LIKELIHOODS, SAMPLERS, SamplerConfig
+
+    d = SamplerConfig()
+    g = p.add_argument_group("inference")
+    g.add_argument("--likelihood", choices=LIKELIHOODS, default="gaussian",
+                   help="gaussian: every bounce = model + measurement noise (the uncertainty "
+                        "of one true value); kde: the paper's (density of the measured "
+                        "rebounds at the simulated one); consistent: data-consistent inversion "
+                        "(the parameters' bounce-to-bounce distribution)")
+    g.add_argument("--sampler", choices=SAMPLERS, default="mh",
+                   help="mh: the paper's Metropolis-Hastings; ensemble: emcee; grid: exact "
+                        "quadrature (up to 3 parameters)")
+    g.add_argument("--seed", type=integer(0), default=0,
+                   help="random seed (recorded in the outputs)")
+    g.add_argument("--noise", choices=("auto", "given", "inferred"), default="auto",
+                   help="gaussian likelihood: the table's standard errors (given), noise levels "
+                        "inferred as extra parameters, or given when every trial has them")
+    g.add_argument("--draws", type=integer(), metavar="N",
+                   help=f"posterior draws kept in all (default {d.draws})")
+    g.add_argument("--chains", type=integer(), metavar="N",
+                   help=f"mh chains (default {d.chains})")
+    g.add_argument("--burn-in", type=integer(), metavar="N",
+                   help=f"iterations (mh, default {d.burn_in}) or steps (ensemble, default "
+                        f"{d.ensemble_burn_in}) discarded at the start; the mh proposal is "
+                        f"tuned meanwhile")
+    g.add_argument("--thin", type=integer(), metavar="N",
+                   help=f"keep every N-th iteration (mh, default {d.thin}) or step (ensemble, "
+                        f"default {d.ensemble_thin})")
+    g.add_argument("--walkers", type=integer(), metavar="N",
+                   help=f"ensemble walkers (default {d.walkers})")
+    g.add_argument("--grid-points", type=integer(), metavar="N",
+                   help="grid points per parameter (default 2048 / 512 / 96 for 1 / 2 / 3 "
+                        "parameters)")
+    add_quiet(p)
+
+
+def sampler_config(args: argparse.Namespace):
+    """The sampler settings the flags ask for; library defaults for the others."""
+    from ..inference import SamplerConfig
+
+    given = {"draws": args.draws, "chains": args.chains, "walkers": args.walkers,
+             "grid_points": args.grid_points}
+    if args.sampler == "ensemble":
+        given |= {"ensemble_burn_in": args.burn_in, "ensemble_thin": args.thin}
+    else:
+        given |= {"burn_in": args.burn_in, "thin": args.thin}
+    return SamplerConfig(**{k: v for k, v in given.items() if v is not None})

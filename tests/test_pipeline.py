@@ -1,0 +1,289 @@
+"""The run folder: staged outputs that change all at once, provenance on every file, and the
+pipeline's handling of earlier results (kept intact on failure, the user's files carried over).
+"""
+
+import hashlib
+import json
+import os
+import struct
+import subprocess
+import sys
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bouncebayes as bb
+from bouncebayes import _io
+from bouncebayes._provenance import (file_sha256, provenance, read_provenance, stamp,
+                                     stamp_tree, tree_sha256)
+from bouncebayes.data import load_experiment, load_trials
+from bouncebayes.inference import SamplerConfig
+
+
+def snapshot(folder: Path) -> dict:
+    """Every path under ``folder`` (hidden ones included) with its bytes' hash."""
+    return {p.relative_to(folder).as_posix(): (hashlib.sha256(p.read_bytes()).hexdigest()
+                                               if p.is_file() else "dir")
+            for p in sorted(folder.rglob("*"))}
+
+
+def make_folder(path: Path, files: dict) -> Path:
+    for name, text in files.items():
+        (path / name).parent.mkdir(parents=True, exist_ok=True)
+        (path / name).write_text(text)
+    return path
+
+
+def dead_pid() -> int:
+    """The id of a process that has finished."""
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+# --------------------------------------------------------------------------- staging
+
+@pytest.mark.parametrize("mode", ["folder", "entries"])
+def test_a_failed_staged_output_leaves_the_target_exactly_as_it_was(tmp_path, mode):
+    target = make_folder(tmp_path / "out", {"summary.json": "{}", "figures/a.png": "x"})
+    before = snapshot(tmp_path)
+    for error in (RuntimeError("stage 4 failed"), KeyboardInterrupt()):
+        with pytest.raises(type(error)):
+            with _io.staged_output(target, mode) as stage:
+                (stage / "summary.json").write_text('{"new": 1}')
+                raise error
+        assert snapshot(tmp_path) == before  # no temporary file either
+
+
+def test_a_staged_run_folder_replaces_the_old_one_whole(tmp_path):
+    target = make_folder(tmp_path / "out", {"summary.json": "old", "grid.npz": "stale"})
+    with _io.staged_output(target, "folder") as stage:
+        (stage / "summary.json").write_text("new")
+        assert stage.parent == tmp_path and stage.name.startswith(".out.staging-")
+    assert snapshot(tmp_path) == {"out": "dir",
+                                  "out/summary.json": hashlib.sha256(b"new").hexdigest()}
+
+
+def test_a_new_output_folder_is_removed_again_when_the_command_fails(tmp_path):
+    with pytest.raises(RuntimeError):
+        with _io.staged_output(tmp_path / "a" / "b" / "out", "entries") as stage:
+            (stage / "x.csv").write_text("1")
+            raise RuntimeError
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_entries_replace_their_namesakes_and_owned_stale_ones_go(tmp_path):
+    target = make_folder(tmp_path / "out", {"mine.txt": "user", "summary.json": "old",
+                                            "grid.npz": "old grid", "trajectories/b1.csv": "1",
+                                            "trajectories/b2.csv": "2"})
+    with _io.staged_output(target, "entries", owned=("summary.json", "grid.npz",
+                                                     "trajectories")) as stage:
+        make_folder(stage, {"summary.json": "new", "trajectories/b1.csv": "new 1"})
+    assert snapshot(target) == snapshot(make_folder(tmp_path / "expect", {
+        "mine.txt": "user", "summary.json": "new", "trajectories/b1.csv": "new 1"}))
+
+
+def test_a_file_output_is_replaced_at_once(tmp_path):
+    target = tmp_path / "trials.csv"
+    target.write_text("old")
+    with _io.staged_output(target, "file") as stage:
+        (stage / "trials.csv").write_text("new")
+    assert target.read_text() == "new" and [p.name for p in tmp_path.iterdir()] == ["trials.csv"]
+
+
+def test_a_run_folder_holding_the_working_directory_is_replaced_entry_by_entry(tmp_path,
+                                                                              monkeypatch):
+    target = make_folder(tmp_path / "out", {"summary.json": "old", "figures/a.png": "old"})
+    monkeypatch.chdir(target)
+    with _io.staged_output(target, "folder") as stage:
+        assert stage.parent == target  # not beside: the user's shell stays in a live folder
+        make_folder(stage, {"summary.json": "new"})
+    assert os.path.samefile(Path.cwd(), target)
+    assert snapshot(target) == {"summary.json": hashlib.sha256(b"new").hexdigest()}
+
+
+def test_leftovers_of_killed_writers_are_cleaned_and_a_half_swap_is_undone(tmp_path):
+    pid = dead_pid()
+    make_folder(tmp_path, {f".out.staging-{pid}-ab12cd34/summary.json": "partial",
+                           f".trials.csv.{pid}.k2j4h5g6.part.csv": "partial",
+                           f".run.old-{pid}-0011aabb/summary.json": "previous run",
+                           f".out.staging-{os.getpid()}-00000000/x": "a live writer's",
+                           "out/summary.json": "current"})
+    removed = _io.remove_stale(tmp_path)
+    assert len(removed) == 2
+    # killed between its two renames: the previous run is moved back where it was
+    assert snapshot(tmp_path) == {
+        f".out.staging-{os.getpid()}-00000000": "dir",
+        f".out.staging-{os.getpid()}-00000000/x": hashlib.sha256(b"a live writer's").hexdigest(),
+        "out": "dir", "out/summary.json": hashlib.sha256(b"current").hexdigest(),
+        "run": "dir", "run/summary.json": hashlib.sha256(b"previous run").hexdigest()}
+
+
+def test_the_next_staged_output_cleans_what_a_killed_one_left(tmp_path):
+    pid = dead_pid()
+    make_folder(tmp_path, {f".out.staging-{pid}-ab12cd34/posterior.nc": "partial",
+                           "out/summary.json": "old"})
+    with _io.staged_output(tmp_path / "out", "folder") as stage:
+        (stage / "summary.json").write_text("new")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+# --------------------------------------------------------------------------- provenance
+
+def test_provenance_records_what_made_a_file(tmp_path):
+    data = make_folder(tmp_path / "traj", {"b1.csv": "t,x,y\n", "sub/b2.csv": "2",
+                                           ".hidden": "skipped"})
+    config = SamplerConfig(draws=500)
+    p = provenance(inputs={"experiment": EXAMPLE, "data": data, "none": None}, seed=7,
+                   config=config, argv=["bouncebayes", "run", "my file.toml"])
+    assert p["bouncebayes_version"] == bb.__version__ and p["seed"] == 7
+    assert p["command"] == "bouncebayes run 'my file.toml'"
+    # independent: hashlib over the bytes, and the documented listing of a folder
+    assert p["inputs"]["experiment"]["sha256"] == hashlib.sha256(EXAMPLE.read_bytes()).hexdigest()
+    listing = (f"b1.csv {hashlib.sha256(b't,x,y' + chr(10).encode()).hexdigest()}\n"
+               f"sub/b2.csv {hashlib.sha256(b'2').hexdigest()}\n")
+    assert p["inputs"]["data"] == {"path": str(data.resolve()), "files": 2,
+                                   "sha256": hashlib.sha256(listing.encode()).hexdigest()}
+    assert "none" not in p["inputs"] and p["config"]["draws"] == 500
+    assert p["python_version"].count(".") == 2 and p["numpy_version"] == np.__version__
+    assert p["created_utc"].endswith("+00:00")
+    json.dumps(p)  # JSON-ready
+    assert tree_sha256(data)[1] == 2 and file_sha256(EXAMPLE) == p["inputs"]["experiment"][
+        "sha256"]
+
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "paper.toml"
+
+
+def _png(width: int = 2, height: int = 1) -> bytes:
+    """A minimal grey PNG built by hand (PNG specification, ISO/IEC 15948)."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", zlib.crc32(kind + data))
+    raw = b"".join(b"\0" + bytes(range(width)) for _ in range(height))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0,
+                                                             0, 0))
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def test_every_format_carries_the_stamp_and_stays_readable(tmp_path, demo):
+    import h5netcdf
+    import matplotlib.image
+
+    record = provenance(inputs={"x": EXAMPLE}, seed=3, argv=["bouncebayes", "x -- y"])
+    files = {"a.json": lambda p: p.write_text('{"k": 1}'),
+             "trials.csv": lambda p: p.write_bytes(demo.trials.read_bytes()),
+             "experiment.toml": lambda p: p.write_bytes(EXAMPLE.read_bytes()),
+             "a.npz": lambda p: np.savez(p, x=np.arange(3)),
+             "a.png": lambda p: p.write_bytes(_png()),
+             "a.svg": lambda p: p.write_text('<?xml version="1.0"?>\n<svg></svg>\n')}
+    for name, make in files.items():
+        make(tmp_path / name)
+    with h5netcdf.File(tmp_path / "a.nc", "w") as f:
+        f.dimensions = {"n": 3}
+        f.create_variable("v", ("n",), data=np.arange(3.0))
+    for name in [*files, "a.nc"]:
+        path = tmp_path / name
+        assert stamp(path, record) and stamp(path, record)  # twice: replaced, not repeated
+        assert read_provenance(path) == json.loads(json.dumps(record)), name
+    assert (tmp_path / "trials.csv").read_text().count("# provenance:") == 1
+    assert "--" not in (tmp_path / "a.svg").read_text().split("<!--")[1].split("-->")[0]
+    # still what they were
+    experiment = load_experiment(tmp_path / "experiment.toml")
+    assert load_trials(tmp_path / "trials.csv", experiment).n == 55
+    assert np.load(tmp_path / "a.npz")["x"].tolist() == [0, 1, 2]
+    assert matplotlib.image.imread(tmp_path / "a.png").shape == (1, 2)
+    assert json.loads((tmp_path / "a.json").read_text())["k"] == 1
+    with h5netcdf.File(tmp_path / "a.nc", "r") as f:
+        assert f.variables["v"][:].tolist() == [0.0, 1.0, 2.0]
+    assert not stamp(tmp_path / "report.html", record)
+
+
+def test_trajectory_files_are_not_stamped(tmp_path):
+    make_folder(tmp_path, {"trajectories/b1.csv": "t,x,y\n0,0,0\n", "summary.json": "{}"})
+    stamped = stamp_tree(tmp_path, provenance(inputs={}))
+    assert [p.name for p in stamped] == ["summary.json"]
+    assert (tmp_path / "trajectories" / "b1.csv").read_text() == "t,x,y\n0,0,0\n"
+
+
+def test_every_file_of_a_run_carries_the_run_provenance(small_run):
+    folder = small_run.folder
+    summary = json.loads((folder / "summary.json").read_text())
+    record = summary["provenance"]
+    assert record["seed"] == 11 and record["inputs"]["data"]["sha256"] == hashlib.sha256(
+        (Path(bb.data.demo_campaign().trials)).read_bytes()).hexdigest()
+    assert record["config"]["sampler_config"]["draws"] == 2000
+    exempt = {"report.html"}
+    for path in folder.rglob("*"):
+        if path.is_file() and path.name not in exempt:
+            assert read_provenance(path) == record, path
+    page = (folder / "report.html").read_text()
+    assert record["created_utc"] in page and record["inputs"]["data"]["sha256"] in page
+    # nothing in the results points into the staging folder
+    assert ".staging-" not in (folder / "summary.json").read_text()
+
+
+# --------------------------------------------------------------------------- the pipeline
+
+def _earlier_run(folder: Path) -> Path:
+    return make_folder(folder, {"summary.json": '{"seed": 1}', "report.html": "<p>seed 1</p>",
+                                "grid.npz": "stale", "notes.txt": "my notes",
+                                "extra/plan.md": "mine too"})
+
+
+def test_a_run_that_fails_at_the_figures_stage_changes_nothing(tmp_path, demo, monkeypatch):
+    import bouncebayes.report
+
+    out = _earlier_run(tmp_path / "out")
+    before = snapshot(tmp_path)
+
+    def broken(*args, **kwargs):
+        raise ValueError("cannot draw")
+
+    monkeypatch.setattr(bouncebayes.report, "make_figures", broken)
+    with pytest.raises(ValueError, match="cannot draw"):
+        bb.pipeline.run(demo.experiment, demo.trials, out, config=SamplerConfig(draws=400),
+                        log=lambda m: None)
+    assert snapshot(tmp_path) == before
+
+
+def test_a_run_keeps_the_users_files_of_an_earlier_run_folder(tmp_path, demo, monkeypatch):
+    import bouncebayes.report
+
+    out = _earlier_run(tmp_path / "out")
+    monkeypatch.setattr(bouncebayes.report, "make_figures", lambda *a, **k: [])
+    messages = []
+    bb.pipeline.run(demo.experiment, demo.trials, out, config=SamplerConfig(draws=400),
+                    log=messages.append, seed=2)
+    assert (out / "notes.txt").read_text() == "my notes"
+    assert (out / "extra" / "plan.md").read_text() == "mine too"
+    assert not (out / "grid.npz").exists()  # the earlier run's: not part of this one
+    assert json.loads((out / "summary.json").read_text())["seed"] == 2
+    assert "kept 2 of your entries" in "\n".join(messages)
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+def test_a_run_refuses_a_folder_that_is_not_a_run_folder(tmp_path, demo):
+    make_folder(tmp_path / "data", {"thesis.tex": "years of work"})
+    with pytest.raises(ValueError, match=r"is not a bouncebayes run folder"):
+        bb.pipeline.run(demo.experiment, demo.trials, tmp_path / "data", log=lambda m: None)
+    assert (tmp_path / "data" / "thesis.tex").read_text() == "years of work"
+
+
+def test_run_passes_progress_to_the_sampler(tmp_path, demo, monkeypatch):
+    import bouncebayes.inference
+
+    seen = {}
+
+    def spy(*args, **kwargs):
+        seen.update(kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bouncebayes.inference, "infer", spy)
+    with pytest.raises(KeyboardInterrupt):
+        bb.pipeline.run(demo.experiment, demo.trials, tmp_path / "o", progress=True,
+                        log=lambda m: None)
+    assert seen["progress"] is True
+    assert list(tmp_path.iterdir()) == []
