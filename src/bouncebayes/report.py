@@ -24,9 +24,11 @@ from .inference._summary import ParameterSummary, import_arviz
 EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
 
 CAPTIONS = {
-    "data": "Measured rebound speed and angle: histograms and Gaussian kernel density "
-            "estimates (paper Fig. 3). The bandwidths and the correlation test decide the "
-            "experimental density used by the kde and consistent likelihoods.",
+    "data": "Measured rebound speed and angle: histograms and the Gaussian kernel density "
+            "estimate of the measured rebounds that the kde likelihood evaluates (MATLAB "
+            "ksdensity's normal-reference bandwidth; paper Fig. 3). The same density is the "
+            "experimental curve of the predictive figure. The correlation test decides "
+            "whether it is a product of the two marginals or a joint 2-D estimate.",
     "joint_posterior": "Joint posterior of the first two parameters as a surface and as "
                        "contours (paper Fig. 4).",
     "marginals": "Prior (dashed) and posterior (solid) marginal densities with the 90 % "
@@ -35,13 +37,24 @@ CAPTIONS = {
                     "draws, at the nominal incidence (paper Fig. 6).",
     "predictive": "Posterior predictive against measured distributions of the rebound speed "
                   "and angle (paper Fig. 7), with the two-sample Kolmogorov–Smirnov test and "
-                  "the Hellinger distance.",
+                  "the Hellinger distance. The measured curve is the density of the data "
+                  "figure.",
     "forces": "Normal and friction force histories of posterior draws (paper Fig. 8).",
     "contact_time": "Probability density of the contact time over the posterior (paper "
                     "Fig. 9); the modes are marked.",
+    "residuals": "Standardised residuals (measured minus modelled rebound, divided by the "
+                 "standard deviation of the measurement model) of every trial, at its own "
+                 "incidence, as the posterior median over draws: in table order and against "
+                 "the incidence angle and speed. A model that fits leaves about 95 % of the "
+                 "trials inside the darker ±2 band and nearly all inside ±3, with no trend "
+                 "against the incidence; trends or many trials outside point to a misfit.",
     "diagnostics": "Sampler diagnostics: the trace of every chain and the histograms of the "
                    "ranks of each chain's draws among all draws (flat when the chains agree).",
 }
+FIGURES_NOTE = ("Axis limits hold the bulk of the values (Tukey's outer fences); a value beyond "
+                "them is not dropped but drawn as an arrowhead or cross at the edge of the axes "
+                "and counted in the legend.")
+DEFAULT_FORMATS = ("png",)
 
 
 def load_result(folder: str | Path) -> InferenceResult:
@@ -82,34 +95,65 @@ def load_truth(folder: str | Path) -> dict | None:
     return json.loads(path.read_text(encoding="utf-8")).get("population")
 
 
-def make_figures(result: InferenceResult, prop, folder: str | Path,
-                 truth: dict | None = None) -> list[tuple[str, Path]]:
-    """Draw every figure as PNG and SVG under ``folder/figures``; returns (key, png path)."""
-    from . import plots
-    from .density import summarize
+def figure_formats(formats) -> tuple[str, ...]:
+    """The figure file formats to write: PNG always (the report embeds it), then the others
+    requested, each once; raises ValueError for a format that cannot be written."""
+    from .plots import FIGURE_FORMATS
 
-    out = Path(folder) / "figures"
-    t = result.trials
+    allowed = tuple(f[1:] for f in FIGURE_FORMATS)
+    if isinstance(formats, str):
+        formats = (formats,)
+    out = ["png"]
+    for f in formats:
+        name = str(f).lower().lstrip(".")
+        if name not in allowed:
+            raise ValueError(f"figure format {f!r} is not one of {', '.join(allowed)}")
+        if name not in out:
+            out.append(name)
+    return tuple(out)
+
+
+def figure_makers(result: InferenceResult, prop, folder: str | Path,
+                  truth: dict | None = None) -> dict:
+    """The function drawing each figure of the run, by key (a function may return None)."""
+    from . import plots
+
     grid = Path(folder) / "grid.npz"
-    figures = {
-        "data": lambda: plots.plot_data(t.rebound_speed, t.rebound_angle,
-                                        summarize(t.rebound_speed, t.rebound_angle)),
+    density = plots.measured_density(result)
+    return {
+        "data": lambda: plots.plot_data(density),
         "joint_posterior": lambda: plots.plot_joint_posterior(
             result, grid if grid.is_file() else None, truth),
         "marginals": lambda: plots.plot_marginals(result, truth),
         "trajectories": lambda: plots.plot_trajectories(prop, result.experiment.ball.radius),
-        "predictive": lambda: plots.plot_predictive(prop, t),
+        "predictive": lambda: plots.plot_predictive(prop, density),
         "forces": lambda: plots.plot_forces(prop),
         "contact_time": lambda: plots.plot_contact_time(prop),
+        "residuals": lambda: plots.plot_residuals(plots.posterior_residuals(result)),
         "diagnostics": lambda: plots.plot_diagnostics(result),
     }
+
+
+def make_figures(result: InferenceResult, prop, folder: str | Path,
+                 truth: dict | None = None, *,
+                 formats=DEFAULT_FORMATS) -> list[tuple[str, Path]]:
+    """Draw every figure under ``folder/figures`` as PNG and the other ``formats`` asked for
+    (``"svg"``, ``"pdf"``); returns (key, PNG path) in report order. Files of a figure in
+    formats not asked for this time are removed, so that none is left from an earlier run."""
+    from .plots import FIGURE_FORMATS, save_figure
+
+    fmts = figure_formats(formats)
+    out = Path(folder) / "figures"
     written = []
-    for key, draw in figures.items():
+    for key, draw in figure_makers(result, prop, folder, truth).items():
         fig = draw()
         if fig is None:
             continue
-        plots.save_figure(fig, out / f"{key}.svg", close=False)
-        written.append((key, plots.save_figure(fig, out / f"{key}.png")))
+        for fmt in fmts:
+            save_figure(fig, out / f"{key}.{fmt}")
+        for stale in (out / f"{key}{s}" for s in FIGURE_FORMATS if s[1:] not in fmts):
+            stale.unlink(missing_ok=True)
+        written.append((key, out / f"{key}.png"))
     return written
 
 
@@ -185,7 +229,7 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
         + (f"the distribution is multimodal ({len(prop_summary['contact_time_modes_s'])} "
            "modes)." if prop_summary["contact_time_multimodal"] else "one mode.")
         + f" Failed simulations: {prop_summary['n_failed']}.</p>",
-        "<h2>Figures</h2>",
+        "<h2>Figures</h2>", f"<p>{html.escape(FIGURES_NOTE)}</p>",
     ]
     for i, (key, path) in enumerate(figures, start=1):
         sections.append(f"<figure>{_img(path, CAPTIONS[key])}<figcaption>Figure {i}. "
