@@ -216,3 +216,71 @@ def test_save_figure_checks_the_suffix(tmp_path, run):
     out = plots.save_figure(fig, tmp_path / "a.png")
     assert out.read_bytes()[:4] == b"\x89PNG"
     assert plots.save_figure(fig, tmp_path / "a.pdf").read_bytes()[:4] == b"%PDF"
+
+
+def _overlaps(a, b, tol=1.0) -> bool:
+    return (a.x0 < b.x1 - tol and b.x0 < a.x1 - tol and a.y0 < b.y1 - tol and b.y0 < a.y1 - tol)
+
+
+def _drawn_tick_labels(axis):
+    lo, hi = sorted(axis.get_view_interval())
+    slack = 1e-9 * (hi - lo)
+    locs = axis.get_majorticklocs()
+    ticks = axis.get_major_ticks(len(locs))
+    return [tick.label1 for loc, tick in zip(locs, ticks, strict=True)
+            if lo - slack <= loc <= hi + slack]
+
+
+def _texts(ax, renderer):
+    """Window extents of the texts of a panel: tick labels, axis labels, titles, legend."""
+    texts = _drawn_tick_labels(ax.xaxis) + _drawn_tick_labels(ax.yaxis)
+    texts += [ax.xaxis.label, ax.yaxis.label, ax.xaxis.get_offset_text(),
+              ax.yaxis.get_offset_text(), *ax.texts, ax.title, ax._left_title, ax._right_title]
+    boxes = [t.get_window_extent(renderer) for t in texts
+             if t.get_visible() and t.get_text()]
+    if ax.get_legend() is not None:
+        boxes.append(ax.get_legend().get_window_extent(renderer))
+    return boxes
+
+
+def _check_layout(fig, name):
+    """Drawn, nothing sticks out of the figure; no text of a panel (tick labels, labels,
+    titles, legend) runs into another panel's plotting area or texts, nor into the suptitle
+    or the figure legend."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    page = fig.bbox
+    whole = fig.get_tightbbox(renderer).transformed(fig.dpi_scale_trans)
+    assert whole.x0 >= page.x0 - 1 and whole.y0 >= page.y0 - 1, name
+    assert whole.x1 <= page.x1 + 1 and whole.y1 <= page.y1 + 1, name
+    panels = [ax for ax in fig.axes if not hasattr(ax, "_colorbar") and not hasattr(ax, "zaxis")]
+    texts = {i: _texts(ax, renderer) for i, ax in enumerate(panels)}
+    extra = [leg.get_window_extent(renderer) for leg in fig.legends]
+    if fig.get_suptitle():
+        extra.append(fig._suptitle.get_window_extent(renderer))
+    for i, ax in enumerate(panels):
+        for j, other in enumerate(panels):
+            if i == j:
+                continue
+            for box in texts[i]:
+                assert not _overlaps(box, other.bbox), f"{name}: panel {i} text on panel {j}"
+                assert not any(_overlaps(box, b) for b in texts[j]), f"{name}: {i} and {j}"
+        for box in extra:
+            assert not _overlaps(box, ax.bbox), f"{name}: figure text on panel {i}"
+            assert not any(_overlaps(box, b) for b in texts[i]), f"{name}: figure text, {i}"
+
+
+def test_panels_are_placed_without_overlaps(run):
+    from bouncebayes.report import figure_makers
+
+    for key, draw in figure_makers(run.result, run.prop, run.folder, run.truth).items():
+        _check_layout(draw(), key)
+    # long tick labels (an offset axis) and an outlier marked at the edge
+    rng = np.random.default_rng(6)
+    speed = np.append(rng.normal(1234.5678, 0.002, 40), 1240.0)
+    density = rebound_density(speed, rng.normal(-45.0, 0.01, 41), kind="product")
+    _check_layout(plots.plot_data(density), "data with long tick labels")
+    history = bb.simulate_history(bb.PAPER_BALL, mu=0.16, eta=1.35, speed=3.0, angle=60.0)
+    _check_layout(plots.plot_bounce(history, title="one bounce"), "bounce")

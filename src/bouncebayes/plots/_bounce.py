@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ._figure import new_figure, styled
+from ._layout import place_panels
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -23,6 +24,7 @@ def plot_bounce(history: BounceHistory, *, title: str | None = None) -> Figure:
     _force_panel(ax_force, history)
     if title:
         fig.suptitle(title)
+    place_panels(fig, [[ax_path, ax_force]])
     return fig
 
 

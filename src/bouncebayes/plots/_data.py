@@ -13,6 +13,7 @@ import numpy as np
 
 from ._figure import new_figure, styled
 from ._kde import kde_curve
+from ._layout import place_panels
 from ._limits import headroom, mark_beyond_x, robust_limits
 
 if TYPE_CHECKING:
@@ -35,7 +36,8 @@ def plot_data(density: ReboundDensity) -> Figure:
     """Fig. 3: histograms of the measured rebound speed and angle with the density the
     likelihood uses (:func:`bouncebayes.density.rebound_density`)."""
     fig = new_figure(10, 3.9)
-    for ax, (attr, label, unit) in zip(fig.subplots(1, 2), VARIABLES, strict=True):
+    axes = fig.subplots(1, 2)
+    for ax, (attr, label, unit) in zip(axes, VARIABLES, strict=True):
         kde = getattr(density, attr)
         x = kde.data
         view = robust_limits(x, pad=0.15)
@@ -59,6 +61,7 @@ def plot_data(density: ReboundDensity) -> Figure:
     c = density.correlation
     fig.suptitle(f"Measured rebounds (Pearson r = {c.r:.2f}, p = {c.p_value:.2g}; "
                  f"density: {density.kind})")
+    place_panels(fig, [axes])
     return fig
 
 
@@ -80,7 +83,8 @@ def plot_predictive(prop, density: ReboundDensity) -> Figure:
     measured one is the likelihood's density, the same curve as in :func:`plot_data`."""
     fig = new_figure(10, 3.9)
     preds = (prop.predicted_speed, prop.predicted_angle)
-    for ax, (attr, label, unit), pred in zip(fig.subplots(1, 2), VARIABLES, preds, strict=True):
+    axes = fig.subplots(1, 2)
+    for ax, (attr, label, unit), pred in zip(axes, VARIABLES, preds, strict=True):
         kde = getattr(density, attr)
         pred = np.asarray(pred, dtype=float)
         view = predictive_view(kde.data, pred)
@@ -102,6 +106,7 @@ def plot_predictive(prop, density: ReboundDensity) -> Figure:
         ax.set_ylabel(f"probability density (1/{unit})")
         ax.legend(loc="upper left", fontsize=8)
     fig.suptitle("Reconstruction of the measured rebounds")
+    place_panels(fig, [axes])
     return fig
 
 

@@ -8,6 +8,7 @@ import numpy as np
 
 from ._figure import new_figure, styled
 from ._kde import binned_kde_2d, kde_curve
+from ._layout import place_panels, right_room
 from ._limits import CLIP_COLOR, clip_points_y, headroom, mark_beyond_x, robust_limits
 
 if TYPE_CHECKING:
@@ -59,7 +60,7 @@ def plot_joint_posterior(result, grid_file=None, truth: dict | None = None) -> F
     ax = fig.add_subplot(1, 2, 2)
     cs = ax.contourf(mx, my, dens, levels=12, cmap="viridis")
     unit = _units(result, names)
-    fig.colorbar(cs, ax=ax, label="density" if unit == "1" else f"density (1/({unit}))")
+    cbar = fig.colorbar(cs, ax=ax, label="density" if unit == "1" else f"density (1/({unit}))")
     _clipped_draws(ax, result, names, gx, gy)
     means = [float(np.mean(result.samples(n))) for n in names]
     ax.plot(*means, "P", ms=10, color="w", mec="k", ls="", label="posterior mean")
@@ -73,6 +74,8 @@ def plot_joint_posterior(result, grid_file=None, truth: dict | None = None) -> F
     ax.set_title("b) contours")
     _few_ticks(ax.xaxis, 5)
     fig.suptitle(f"Joint posterior ({source}; likelihood {result.likelihood})")
+    # the 3-D panel draws its labels inside its own cell
+    place_panels(fig, [[ax3, ax]], right=right_room(cbar.ax) + 0.1, left=0.05)
     return fig
 
 
@@ -110,6 +113,7 @@ def plot_marginals(result, truth: dict | None = None) -> Figure:
     for ax, p, prior in zip(axes, result.parameters, result.posterior.priors, strict=True):
         _marginal_panel(ax, result, p, prior, truth)
     fig.suptitle("Prior and posterior marginals")
+    place_panels(fig, [axes])
     return fig
 
 
@@ -166,10 +170,11 @@ def plot_diagnostics(result) -> Figure:
         _rank_panel(axes[i, 1], s[..., i])
     # one legend for the chains of every panel, below them
     handles, labels = axes[0, 1].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=min(len(labels), 9),
-               fontsize=8)
+    ncols = min(len(labels), 9)
+    fig.legend(handles, labels, loc="lower center", ncols=ncols, fontsize=8)
     shown = f"; {MAX_CHAINS_SHOWN} shown" if c > MAX_CHAINS_SHOWN else ""
     fig.suptitle(f"Sampler diagnostics ({result.sampler}, {c} chain(s){shown})")
+    place_panels(fig, axes, legend_rows=-(-len(labels) // ncols))
     return fig
 
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ._figure import new_figure, styled
 from ._kde import kde_curve
+from ._layout import place_panels
 from ._limits import curve_limits, headroom, mark_beyond_x, mark_curves_beyond, robust_limits
 
 if TYPE_CHECKING:
@@ -24,8 +25,8 @@ def _bundle(ax, xs: list[np.ndarray], ys: list[np.ndarray], color: str, label: s
     from matplotlib.collections import LineCollection
 
     segments = [np.column_stack([x, y]) for x, y in zip(xs, ys, strict=True)]
-    ax.add_collection(LineCollection(segments, colors=color, linewidths=0.6, alpha=0.3,
-                                     label=label))
+    ax.add_collection(LineCollection(segments, colors=color, linewidths=0.6, alpha=0.3))
+    ax.plot([], [], color=color, lw=1.2, label=label)  # the legend's line, opaque
 
 
 def _curves(h: dict, key: str, scale: float, contact_only: bool = False) -> list[np.ndarray]:
@@ -56,6 +57,7 @@ def plot_trajectories(prop, radius: float) -> Figure:
     ax.set_title(f"Trajectory of the centre of mass through the collision "
                  f"({len(xs)} draws, nominal incidence)")
     ax.legend(loc="lower right")
+    place_panels(fig, [[ax]])
     return fig
 
 
@@ -66,7 +68,8 @@ def plot_forces(prop) -> Figure:
     fig = new_figure(10, 3.9)
     ts = _curves(h, "time", 1e3, contact_only=True)
     xlim = curve_limits(ts, include=(0.0,), pad=0.03)
-    for ax, key, color, title in zip(fig.subplots(1, 2), ("normal_force", "friction_force"),
+    axes = fig.subplots(1, 2)
+    for ax, key, color, title in zip(axes, ("normal_force", "friction_force"),
                                      ("C0", "C1"), ("a) normal force", "b) friction force"),
                                      strict=True):
         fs = _curves(h, key, 1.0, contact_only=True)
@@ -83,6 +86,7 @@ def plot_forces(prop) -> Figure:
         peak_up = abs(ylim[1]) >= abs(ylim[0])
         ax.legend(loc="lower center" if peak_up else "upper center")
     fig.suptitle(f"Contact forces of {len(ts)} posterior draws (nominal incidence)")
+    place_panels(fig, [axes])
     return fig
 
 
@@ -114,4 +118,5 @@ def plot_contact_time(prop) -> Figure:
     shape = {1: "unimodal", 2: "bimodal"}.get(n, f"{n} modes")
     ax.set_title(f"PDF of the contact time at the nominal incidence ({shape})")
     ax.legend(loc="upper right")
+    place_panels(fig, [[ax]])
     return fig

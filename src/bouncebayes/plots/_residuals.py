@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ._figure import new_figure, styled
+from ._layout import place_panels
 from ._limits import clip_points_y, robust_limits
 
 if TYPE_CHECKING:
@@ -165,7 +166,7 @@ ROWS = (("speed", "rebound speed"), ("angle", "rebound angle"))
 @styled
 def plot_residuals(res: Residuals) -> Figure:
     """Standardised residuals of rebound speed and angle per trial, and against the incidence
-    angle and speed, with the +-2 and +-3 bands of a well-specified model."""
+    angle and speed, with the ±2 and ±3 bands of a well-specified model."""
     fig = new_figure(13, 6.6)
     axes = fig.subplots(2, 3, sharey="row")
     n = len(res.labels)
@@ -184,15 +185,16 @@ def plot_residuals(res: Residuals) -> Figure:
         row[0].set_title(_row_summary(name, r), loc="left", fontsize=10)
         _name_worst(row[0], index, r, res.labels, limits)
     handles, labels = _legend_entries(axes)
-    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=9)
-    fig.suptitle(f"Residuals (observed - model) / sd per trial, at the posterior (median over "
+    fig.legend(handles, labels, loc="lower center", ncols=len(labels), fontsize=9)
+    fig.suptitle(f"Residuals (observed − model) / sd per trial, at the posterior (median over "
                  f"draws); divided by {res.scale}")
+    place_panels(fig, axes, legend_rows=1)
     return fig
 
 
 def _residual_panel(ax, x, r, limits) -> None:
-    ax.axhspan(-3, 3, color="0.93", zorder=0, label="within +-3 (99.7 % expected)")
-    ax.axhspan(-2, 2, color="0.82", zorder=0, label="within +-2 (95 % expected)")
+    ax.axhspan(-3, 3, color="0.93", zorder=0, label="within ±3 (99.7 % expected)")
+    ax.axhspan(-2, 2, color="0.82", zorder=0, label="within ±2 (95 % expected)")
     ax.axhline(0, color="k", lw=0.8)
     inside = (r >= limits[0]) & (r <= limits[1])
     ax.plot(x[inside], r[inside], "o", ms=4, color="C0", label="trials")
@@ -205,18 +207,28 @@ def _row_summary(name: str, r: np.ndarray) -> str:
     n = r.size
     rms = float(np.sqrt(np.mean(r**2))) if n else float("nan")
     over2, over3 = int(np.sum(np.abs(r) > 2)), int(np.sum(np.abs(r) > 3))
-    return (f"{name}: rms {rms:.2f} (about 1 expected); {over2} of {n} beyond +-2 "
-            f"({0.0455 * n:.1f} expected), {over3} beyond +-3 ({0.0027 * n:.1f} expected)")
+    return (f"{name}: rms {rms:.2f} (about 1 expected); {over2} of {n} beyond ±2 "
+            f"({0.0455 * n:.1f} expected), {over3} beyond ±3 ({0.0027 * n:.1f} expected)")
 
 
 def _name_worst(ax, index, r, labels, limits) -> None:
-    """Label the trials with the largest residuals beyond +-2 (at most ``N_NAMED``)."""
+    """Label the trials with the largest residuals beyond ±2 (at most ``N_NAMED``), each label
+    beside its point (on the side towards the middle), moved down a line while it would sit on
+    the previous one."""
     order = np.argsort(-np.nan_to_num(np.abs(r), nan=-1.0))[:N_NAMED]
-    for i in order:
-        if np.abs(r[i]) > 2:
-            y = float(np.clip(r[i], *limits))
-            ax.annotate(labels[i], (index[i], y), xytext=(4, -10 if y > 0 else 4),
-                        textcoords="offset points", fontsize=7, color="0.25")
+    placed: list[tuple[float, float]] = []  # (index, height in points) of earlier labels
+    per_point = 72.0 * 2.2 / max(np.ptp(limits), 1e-12)  # points per unit (panel ~2.2 in)
+    for i in sorted(int(k) for k in order if np.abs(r[k]) > 2):
+        y = float(np.clip(r[i], *limits))
+        dy = -4.0
+        while any(abs(index[i] - px) < 0.15 * len(labels)
+                  and abs(y * per_point + dy - py) < 9.0 for px, py in placed):
+            dy -= 9.0
+        placed.append((index[i], y * per_point + dy))
+        right = index[i] > 0.6 * len(labels)  # near the right edge: label on the left
+        ax.annotate(labels[i], (index[i], y), xytext=(-5 if right else 5, dy),
+                    textcoords="offset points", fontsize=7, color="0.25", va="top",
+                    ha="right" if right else "left")
 
 
 def _legend_entries(axes):
