@@ -170,11 +170,7 @@ def _table(rows: list[list[str]], header: list[str] | None = None) -> str:
     return f"<table>{thead}<tbody>{body}</tbody></table>"
 
 
-def render_report(result: InferenceResult, prop_summary: dict, figures, folder: str | Path,
-                  truth: dict | None = None) -> Path:
-    """Write ``folder/report.html``: one file, figures embedded, opens offline."""
-    e, t = result.experiment, result.trials
-    s = result.summary()
+def _result_section(result: InferenceResult, truth: dict | None) -> list[str]:
     params = [[p.name, p.unit or "-", f"{p.mean:.5g}", f"{p.sd:.3g}",
                f"[{p.ci90[0]:.5g}, {p.ci90[1]:.5g}]", p.paper_form(),
                "-" if p.r_hat is None else f"{p.r_hat:.3f}",
@@ -187,21 +183,19 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
     warns = "".join(f"<li>{html.escape(w)}</li>" for w in result.warnings) or \
         "<li>none: chains agree (R-hat &le; 1.01), enough effective draws (ESS &ge; 400), one " \
         "mode, nothing piled against a prior bound</li>"
-    at = prop_summary["at_nominal_incidence"]
-    pred_rows = [[k.replace("_", " "), v["unit"], f"{v['mean']:.4g}", f"{v['sd']:.3g}",
-                  f"[{v['ci90'][0]:.4g}, {v['ci90'][1]:.4g}]"]
-                 for k, v in at.items() if isinstance(v, dict)]
-    match = prop_summary["posterior_predictive_match"]
     r = result.regimes
-    sections = [
-        f"<h1>bouncebayes report: {html.escape(e.name)}</h1>",
-        f"<p class='meta'>{html.escape(e.description)}</p>",
-        "<h2>Result</h2>", _table(params, header),
-        f"<p>Friction regime of the posterior's simulated bounces: "
-        f"{100 * (1 - r['share_rolling']):.0f} % slide throughout the contact, "
-        f"{100 * r['share_rolling']:.0f} % leave rolling (where a bounce leaves rolling its "
-        f"rebound does not depend on mu).</p>",
-        "<h2>Diagnostics and warnings</h2>", f"<ul>{warns}</ul>",
+    return ["<h2>Result</h2>", _table(params, header),
+            f"<p>Friction regime of the posterior's simulated bounces: "
+            f"{100 * (1 - r['share_rolling']):.0f} % slide throughout the contact, "
+            f"{100 * r['share_rolling']:.0f} % leave rolling (where a bounce leaves rolling its "
+            f"rebound does not depend on mu).</p>",
+            "<h2>Diagnostics and warnings</h2>", f"<ul>{warns}</ul>"]
+
+
+def _experiment_section(result: InferenceResult) -> list[str]:
+    e, t = result.experiment, result.trials
+    s = result.summary()
+    return [
         "<h2>The experiment</h2>",
         _table([["ball", f"diameter {1e3 * e.ball.diameter:.4g} mm, mass "
                          f"{1e3 * e.ball.mass:.4g} g, E = {e.ball.youngs_modulus:.4g} Pa, "
@@ -220,21 +214,36 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
         "<h2>Method</h2>",
         f"<p><b>Likelihood {result.likelihood}</b>: {html.escape(MEANINGS[result.likelihood])}"
         f"</p><p><b>Sampler {result.sampler}</b>: "
-        f"{html.escape(SAMPLER_MEANINGS[result.sampler])}; {s['n_draws']} draws.</p>",
-        "<h2>What the posterior predicts</h2>",
-        f"<p>{html.escape(match['verdict'])}</p>",
-        _table(pred_rows, ["quantity (nominal incidence)", "unit", "mean", "sd",
-                           "90 % interval"]),
-        "<p>Contact time: "
-        + (f"the distribution is multimodal ({len(prop_summary['contact_time_modes_s'])} "
-           "modes)." if prop_summary["contact_time_multimodal"] else "one mode.")
-        + f" Failed simulations: {prop_summary['n_failed']}.</p>",
-        "<h2>Figures</h2>", f"<p>{html.escape(FIGURES_NOTE)}</p>",
-    ]
+        f"{html.escape(SAMPLER_MEANINGS[result.sampler])}; {s['n_draws']} draws.</p>"]
+
+
+def _prediction_section(prop_summary: dict) -> list[str]:
+    at = prop_summary["at_nominal_incidence"]
+    pred_rows = [[k.replace("_", " "), v["unit"], f"{v['mean']:.4g}", f"{v['sd']:.3g}",
+                  f"[{v['ci90'][0]:.4g}, {v['ci90'][1]:.4g}]"]
+                 for k, v in at.items() if isinstance(v, dict)]
+    match = prop_summary["posterior_predictive_match"]
+    return ["<h2>What the posterior predicts</h2>",
+            f"<p>{html.escape(match['verdict'])}</p>",
+            _table(pred_rows, ["quantity (nominal incidence)", "unit", "mean", "sd",
+                               "90 % interval"]),
+            "<p>Contact time: "
+            + (f"the distribution is multimodal ({len(prop_summary['contact_time_modes_s'])} "
+               "modes)." if prop_summary["contact_time_multimodal"] else "one mode.")
+            + f" Failed simulations: {prop_summary['n_failed']}.</p>"]
+
+
+def _figures_section(figures) -> list[str]:
+    out = ["<h2>Figures</h2>", f"<p>{html.escape(FIGURES_NOTE)}</p>"]
     for i, (key, path) in enumerate(figures, start=1):
-        sections.append(f"<figure>{_img(path, CAPTIONS[key])}<figcaption>Figure {i}. "
-                        f"{html.escape(CAPTIONS[key])}</figcaption></figure>")
-    sections += ["<h2>Provenance</h2>", _table([
+        out.append(f"<figure>{_img(path, CAPTIONS[key])}<figcaption>Figure {i}. "
+                   f"{html.escape(CAPTIONS[key])}</figcaption></figure>")
+    return out
+
+
+def _provenance_section(result: InferenceResult) -> list[str]:
+    e, t = result.experiment, result.trials
+    return ["<h2>Provenance</h2>", _table([
         ["bouncebayes", __version__], ["python", platform.python_version()],
         ["numpy", np.__version__], ["created (UTC)", dt.datetime.now(dt.UTC).isoformat(
             timespec="seconds")],
@@ -243,6 +252,17 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
         ["sampler settings", json.dumps(result.config.__dict__)]]),
         "<h3>Experiment file</h3>",
         f"<pre>{html.escape(Path(e.source).read_text(encoding='utf-8'))}</pre>"]
+
+
+def render_report(result: InferenceResult, prop_summary: dict, figures, folder: str | Path,
+                  truth: dict | None = None) -> Path:
+    """Write ``folder/report.html``: one file, figures embedded, opens offline."""
+    e = result.experiment
+    sections = [f"<h1>bouncebayes report: {html.escape(e.name)}</h1>",
+                f"<p class='meta'>{html.escape(e.description)}</p>",
+                *_result_section(result, truth), *_experiment_section(result),
+                *_prediction_section(prop_summary), *_figures_section(figures),
+                *_provenance_section(result)]
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>bouncebayes: "
             f"{html.escape(e.name)}</title><style>{CSS}</style></head><body>"
             + "\n".join(sections) + "</body></html>\n")
