@@ -75,11 +75,15 @@ def baseline(result, prop, folder, truth) -> None:
 
 def constrained(result, prop, out, truth) -> None:
     """PNG only, but laid out by matplotlib's constrained layout engine (computed once)."""
+    import warnings
+
     from bouncebayes.plots import _figure
 
     _figure.LAYOUT = "constrained"
     try:
-        make_figures(result, prop, out, truth)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the engine overrides the fixed placement: known
+            make_figures(result, prop, out, truth)
     finally:
         _figure.LAYOUT = None
 
