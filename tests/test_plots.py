@@ -98,7 +98,7 @@ def test_data_and_predictive_figures_draw_the_likelihoods_density(run):
     assert density.speed.bandwidth == like.speed.bandwidth
     assert density.angle.bandwidth == like.angle.bandwidth
     data, predictive = plots.plot_data(density), plots.plot_predictive(run.prop, density)
-    for fig, prefix in ((data, "KDE (normal-reference"), (predictive, "experiment (KDE")):
+    for fig, prefix in ((data, "KDE, normal-reference"), (predictive, "experiment (KDE, no")):
         for ax, kde in zip(fig.axes[:2], (density.speed, density.angle), strict=True):
             curves = [line for line in ax.get_lines() if line.get_label().startswith(prefix)]
             assert len(curves) == 1
@@ -284,3 +284,23 @@ def test_panels_are_placed_without_overlaps(run):
     _check_layout(plots.plot_data(density), "data with long tick labels")
     history = bb.simulate_history(bb.PAPER_BALL, mu=0.16, eta=1.35, speed=3.0, angle=60.0)
     _check_layout(plots.plot_bounce(history, title="one bounce"), "bounce")
+
+
+def test_figures_of_a_posterior_whose_bounces_all_fail(run):
+    """Damping that stops the ball: every propagated bounce fails. The figures still draw, say
+    so, and raise no warning (the suite turns warnings into errors)."""
+    from bouncebayes.propagation import propagate
+
+    result = run.result
+    samples = result.draws.samples.copy()
+    samples[..., result.names.index("eta")] = 5000.0
+    broken = replace(result, draws=replace(result.draws, samples=samples))
+    prop = propagate(broken, n_draws=20, n_histories=2)
+    contact = plots.plot_contact_time(prop)
+    assert "no propagated bounce separated" in contact.axes[0].texts[0].get_text()
+    for fig in (plots.plot_trajectories(prop, 0.0128), plots.plot_forces(prop),
+                plots.plot_predictive(prop, plots.measured_density(result)), contact):
+        _check_layout(fig, "failed bounces")
+    res = plots.posterior_residuals(broken, n_draws=10)
+    assert np.isnan(res.speed).all() and np.isnan(res.angle).all()
+    _check_layout(plots.plot_residuals(res), "NaN residuals")

@@ -28,7 +28,7 @@ PREDICTIVE_REACH = 2.0  # the predictive figure shows at most this many data wid
 
 def _kde_label(density: ReboundDensity, kde: KDE1D, unit: str) -> str:
     what = "marginal of the joint KDE" if density.kind == "joint" else "KDE"
-    return f"{what} ({kde.rule} bandwidth {kde.bandwidth:.3g} {unit})"
+    return f"{what}, {kde.rule} bandwidth {kde.bandwidth:.3g} {unit}"
 
 
 @styled

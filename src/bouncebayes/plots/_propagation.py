@@ -90,12 +90,25 @@ def plot_forces(prop) -> Figure:
     return fig
 
 
+def _nothing_to_show(fig, ax, xlabel: str, ylabel: str, why: str) -> Figure:
+    ax.text(0.5, 0.5, why, ha="center", va="center", transform=ax.transAxes, wrap=True)
+    ax.plot([], [], ls="", label="no data")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(loc="upper right")
+    place_panels(fig, [[ax]])
+    return fig
+
+
 @styled
 def plot_contact_time(prop) -> Figure:
     """Fig. 9: the PDF of the contact time, with its modes marked."""
     tc = prop.bounces.contact_time[prop.bounces.ok] * 1e3
     fig = new_figure(6.5, 3.9)
     ax = fig.subplots()
+    if tc.size == 0:
+        return _nothing_to_show(fig, ax, "contact time (ms)", "probability density (1/ms)",
+                                "no propagated bounce separated: no contact time to show")
     view = robust_limits(tc, pad=0.15)
     inside = tc[(tc >= view[0]) & (tc <= view[1])]
     edges = np.histogram_bin_edges(inside, bins="auto")

@@ -79,16 +79,23 @@ def posterior_residuals(result, *, n_draws: int = N_DRAWS) -> Residuals:
     observed = (np.asarray(t.rebound_speed), np.asarray(t.rebound_angle))
     if sd is None:
         scale = "their own robust spread (the table has no standard errors)"
-        raw = [np.nanmedian(obs - m, axis=0) for obs, m in zip(observed, model, strict=True)]
-        res = [r / (np.nanmedian(np.abs(r - np.nanmedian(r))) / MAD_TO_SD or 1.0) for r in raw]
+        raw = [_median(obs - m, axis=0) for obs, m in zip(observed, model, strict=True)]
+        res = [r / (_median(np.abs(r - _median(r))) / MAD_TO_SD or 1.0) for r in raw]
     else:
         scale = "the standard deviation of the measurement model"
         prop = _propagated_var(result, {k: np.median(v) for k, v in draws.items()})
-        res = [np.nanmedian((obs - m) / np.sqrt(s**2 + p), axis=0)
+        res = [_median((obs - m) / np.sqrt(s**2 + p), axis=0)
                for obs, m, s, p in zip(observed, model, sd, prop, strict=True)]
     return Residuals(res[0], res[1], tuple(t.labels), np.asarray(t.incidence_speed),
                      np.asarray(t.incidence_angle), scale,
                      {"incidence_speed", "incidence_angle"} <= set(t.measured))
+
+
+def _median(x: np.ndarray, axis: int | None = None) -> np.ndarray:
+    """Median over the finite values; NaN (no warning) where a trial's every draw failed."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # "All-NaN slice": NaN is the answer
+        return np.nanmedian(x, axis=axis)
 
 
 def _model_values(result, draws: dict) -> dict:
@@ -192,9 +199,17 @@ def plot_residuals(res: Residuals) -> Figure:
     return fig
 
 
+BANDS = ((3.0, "0.93", "within ±3 (99.7 % expected)"), (2.0, "0.82", "within ±2 (95 % expected)"))
+
+
 def _residual_panel(ax, x, r, limits) -> None:
-    ax.axhspan(-3, 3, color="0.93", zorder=0, label="within ±3 (99.7 % expected)")
-    ax.axhspan(-2, 2, color="0.82", zorder=0, label="within ±2 (95 % expected)")
+    from matplotlib.patches import Rectangle
+
+    for k, color, label in BANDS:
+        # a band across the panel, added as an artist: axhspan would also update the data
+        # limits, through a path interpolated in 100 steps, which these fixed limits do not need
+        ax.add_artist(Rectangle((0.0, -k), 1.0, 2.0 * k, transform=ax.get_yaxis_transform(),
+                                color=color, zorder=0, label=label, lw=0))
     ax.axhline(0, color="k", lw=0.8)
     inside = (r >= limits[0]) & (r <= limits[1])
     ax.plot(x[inside], r[inside], "o", ms=4, color="C0", label="trials")
@@ -232,8 +247,10 @@ def _name_worst(ax, index, r, labels, limits) -> None:
 
 
 def _legend_entries(axes):
-    """The legend entries of every panel, each label once."""
-    seen: dict = {}
+    """The legend entries of every panel (the bands first), each label once."""
+    from matplotlib.patches import Patch
+
+    seen: dict = {label: Patch(color=color, lw=0) for _, color, label in BANDS}
     for ax in axes.flat:
         for h, label in zip(*ax.get_legend_handles_labels(), strict=True):
             seen.setdefault(label, h)
