@@ -250,7 +250,8 @@ def _check_layout(fig, name):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     renderer = FigureCanvasAgg(fig).get_renderer()
-    fig.draw(renderer)
+    with np.errstate(over="ignore", invalid="ignore"):  # as save_figure: mplot3d's projection
+        fig.draw(renderer)
     page = fig.bbox
     whole = fig.get_tightbbox(renderer).transformed(fig.dpi_scale_trans)
     assert whole.x0 >= page.x0 - 1 and whole.y0 >= page.y0 - 1, name
