@@ -12,7 +12,7 @@ from bouncebayes.cli import main
 from bouncebayes.pipeline import data_kind
 
 FIGURES = ("data", "joint_posterior", "marginals", "trajectories", "predictive", "forces",
-           "contact_time", "diagnostics")
+           "contact_time", "residuals", "diagnostics")
 
 
 def test_run_writes_every_output(small_run):
@@ -21,11 +21,41 @@ def test_run_writes_every_output(small_run):
                  "report.html", "experiment.toml", "trials.csv", "truth.json"):
         assert (f / name).is_file(), name
     for key in FIGURES:
-        png, svg = f / "figures" / f"{key}.png", f / "figures" / f"{key}.svg"
+        png = f / "figures" / f"{key}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-        assert svg.read_text().lstrip().startswith("<?xml")
+        assert not (f / "figures" / f"{key}.svg").exists()  # SVG only on request
     assert set(small_run.stage_seconds) == {"data", "inference", "propagation", "figures",
                                             "report"}
+
+
+def test_figures_in_svg_on_request(small_run, tmp_path):
+    """SVG (and PDF) beside the PNG when asked for; asking for fewer formats later removes the
+    files of the others, so that no figure is left over from an earlier run."""
+    from bouncebayes.propagation import load_propagation
+    from bouncebayes.report import load_result, load_truth, make_figures
+
+    result, prop = load_result(small_run.folder), load_propagation(small_run.folder)
+    written = make_figures(result, prop, tmp_path, load_truth(small_run.folder),
+                           formats=("png", "svg"))
+    assert [k for k, _ in written] == list(FIGURES)
+    for key, png in written:
+        assert png == tmp_path / "figures" / f"{key}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        svg = tmp_path / "figures" / f"{key}.svg"
+        assert svg.read_text().lstrip().startswith("<?xml")
+    make_figures(result, prop, tmp_path, formats=())
+    assert not list((tmp_path / "figures").glob("*.svg"))
+    assert len(list((tmp_path / "figures").glob("*.png"))) == len(FIGURES)
+
+
+def test_figure_formats():
+    from bouncebayes.report import figure_formats
+
+    assert figure_formats(()) == ("png",)
+    assert figure_formats("svg") == ("png", "svg")
+    assert figure_formats(["SVG", ".pdf", "png", "svg"]) == ("png", "svg", "pdf")
+    with pytest.raises(ValueError, match="figure format 'jpg' is not one of png, svg, pdf"):
+        figure_formats(["jpg"])
 
 
 def test_report_is_self_contained_and_complete(small_run):
@@ -36,7 +66,8 @@ def test_report_is_self_contained_and_complete(small_run):
     for p in summary["parameters"].values():
         assert p["paper_form"] in page
     for text in ("Likelihood gaussian", "Sampler mh", "Provenance", "sha256", "true value",
-                 "Diagnostics and warnings", "What the posterior predicts", "Figure 8."):
+                 "Diagnostics and warnings", "What the posterior predicts", "Figure 8.",
+                 "Standardised residuals", "not dropped"):
         assert text in page, text
 
 

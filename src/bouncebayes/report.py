@@ -25,9 +25,11 @@ from .pipeline import EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE
 
 
 CAPTIONS = {
-    "data": "Measured rebound speed and angle: histograms and Gaussian kernel density "
-            "estimates (paper Fig. 3). The bandwidths and the correlation test decide the "
-            "experimental density used by the kde and consistent likelihoods.",
+    "data": "Measured rebound speed and angle: histograms and the Gaussian kernel density "
+            "estimate of the measured rebounds that the kde likelihood evaluates (MATLAB "
+            "ksdensity's normal-reference bandwidth; paper Fig. 3). The same density is the "
+            "experimental curve of the predictive figure. The correlation test decides "
+            "whether it is a product of the two marginals or a joint 2-D estimate.",
     "joint_posterior": "Joint posterior of the first two parameters as a surface and as "
                        "contours (paper Fig. 4).",
     "marginals": "Prior (dashed) and posterior (solid) marginal densities with the 90 % "
@@ -36,13 +38,24 @@ CAPTIONS = {
                     "draws, at the nominal incidence (paper Fig. 6).",
     "predictive": "Posterior predictive against measured distributions of the rebound speed "
                   "and angle (paper Fig. 7), with the two-sample Kolmogorov–Smirnov test and "
-                  "the Hellinger distance.",
+                  "the Hellinger distance. The measured curve is the density of the data "
+                  "figure.",
     "forces": "Normal and friction force histories of posterior draws (paper Fig. 8).",
     "contact_time": "Probability density of the contact time over the posterior (paper "
                     "Fig. 9); the modes are marked.",
+    "residuals": "Standardised residuals (measured minus modelled rebound, divided by the "
+                 "standard deviation of the measurement model) of every trial, at its own "
+                 "incidence, as the posterior median over draws: in table order and against "
+                 "the incidence angle and speed. A model that fits leaves about 95 % of the "
+                 "trials inside the darker ±2 band and nearly all inside ±3, with no trend "
+                 "against the incidence; trends or many trials outside point to a misfit.",
     "diagnostics": "Sampler diagnostics: the trace of every chain and the histograms of the "
                    "ranks of each chain's draws among all draws (flat when the chains agree).",
 }
+FIGURES_NOTE = ("Axis limits hold the bulk of the values (Tukey's outer fences); a value beyond "
+                "them is not dropped but drawn as an arrowhead or cross at the edge of the axes "
+                "and counted in the legend.")
+DEFAULT_FORMATS = ("png",)
 
 
 RUN_FILES = ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE)
@@ -222,34 +235,65 @@ def load_truth(folder: str | Path) -> dict | None:
     return population
 
 
-def make_figures(result: InferenceResult, prop, folder: str | Path,
-                 truth: dict | None = None) -> list[tuple[str, Path]]:
-    """Draw every figure as PNG and SVG under ``folder/figures``; returns (key, png path)."""
-    from . import plots
-    from .density import summarize
+def figure_formats(formats) -> tuple[str, ...]:
+    """The figure file formats to write: PNG always (the report embeds it), then the others
+    requested, each once; raises ValueError for a format that cannot be written."""
+    from .plots import FIGURE_FORMATS
 
-    out = Path(folder) / "figures"
-    t = result.trials
+    allowed = tuple(f[1:] for f in FIGURE_FORMATS)
+    if isinstance(formats, str):
+        formats = (formats,)
+    out = ["png"]
+    for f in formats:
+        name = str(f).lower().lstrip(".")
+        if name not in allowed:
+            raise ValueError(f"figure format {f!r} is not one of {', '.join(allowed)}")
+        if name not in out:
+            out.append(name)
+    return tuple(out)
+
+
+def figure_makers(result: InferenceResult, prop, folder: str | Path,
+                  truth: dict | None = None) -> dict:
+    """The function drawing each figure of the run, by key (a function may return None)."""
+    from . import plots
+
     grid = Path(folder) / "grid.npz"
-    figures = {
-        "data": lambda: plots.plot_data(t.rebound_speed, t.rebound_angle,
-                                        summarize(t.rebound_speed, t.rebound_angle)),
+    density = plots.measured_density(result)
+    return {
+        "data": lambda: plots.plot_data(density),
         "joint_posterior": lambda: plots.plot_joint_posterior(
             result, grid if grid.is_file() else None, truth),
         "marginals": lambda: plots.plot_marginals(result, truth),
         "trajectories": lambda: plots.plot_trajectories(prop, result.experiment.ball.radius),
-        "predictive": lambda: plots.plot_predictive(prop, t),
+        "predictive": lambda: plots.plot_predictive(prop, density),
         "forces": lambda: plots.plot_forces(prop),
         "contact_time": lambda: plots.plot_contact_time(prop),
+        "residuals": lambda: plots.plot_residuals(plots.posterior_residuals(result)),
         "diagnostics": lambda: plots.plot_diagnostics(result),
     }
+
+
+def make_figures(result: InferenceResult, prop, folder: str | Path,
+                 truth: dict | None = None, *,
+                 formats=DEFAULT_FORMATS) -> list[tuple[str, Path]]:
+    """Draw every figure under ``folder/figures`` as PNG and the other ``formats`` asked for
+    (``"svg"``, ``"pdf"``); returns (key, PNG path) in report order. Files of a figure in
+    formats not asked for this time are removed, so that none is left from an earlier run."""
+    from .plots import FIGURE_FORMATS, save_figure
+
+    fmts = figure_formats(formats)
+    out = Path(folder) / "figures"
     written = []
-    for key, draw in figures.items():
+    for key, draw in figure_makers(result, prop, folder, truth).items():
         fig = draw()
         if fig is None:
             continue
-        plots.save_figure(fig, out / f"{key}.svg", close=False)
-        written.append((key, plots.save_figure(fig, out / f"{key}.png")))
+        for fmt in fmts:
+            save_figure(fig, out / f"{key}.{fmt}")
+        for stale in (out / f"{key}{s}" for s in FIGURE_FORMATS if s[1:] not in fmts):
+            stale.unlink(missing_ok=True)
+        written.append((key, out / f"{key}.png"))
     return written
 
 
@@ -266,12 +310,7 @@ def _table(rows: list[list[str]], header: list[str] | None = None) -> str:
     return f"<table>{thead}<tbody>{body}</tbody></table>"
 
 
-def render_report(result: InferenceResult, prop_summary: dict, figures, folder: str | Path,
-                  truth: dict | None = None, provenance: dict | None = None) -> Path:
-    """Write ``folder/report.html``: one file, figures embedded, opens offline. ``provenance``:
-    the run's record (:func:`bouncebayes._provenance.provenance`), made here if not given."""
-    e, t = result.experiment, result.trials
-    s = result.summary()
+def _result_section(result: InferenceResult, truth: dict | None) -> list[str]:
     params = [[p.name, p.unit or "-", f"{p.mean:.5g}", f"{p.sd:.3g}",
                f"[{p.ci90[0]:.5g}, {p.ci90[1]:.5g}]", p.paper_form(),
                "-" if p.r_hat is None else f"{p.r_hat:.3f}",
@@ -284,21 +323,19 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
     warns = "".join(f"<li>{html.escape(w)}</li>" for w in result.warnings) or \
         "<li>none: chains agree (R-hat &le; 1.01), enough effective draws (ESS &ge; 400), one " \
         "mode, nothing piled against a prior bound</li>"
-    at = prop_summary["at_nominal_incidence"]
-    pred_rows = [[k.replace("_", " "), v["unit"], f"{v['mean']:.4g}", f"{v['sd']:.3g}",
-                  f"[{v['ci90'][0]:.4g}, {v['ci90'][1]:.4g}]"]
-                 for k, v in at.items() if isinstance(v, dict)]
-    match = prop_summary["posterior_predictive_match"]
     r = result.regimes
-    sections = [
-        f"<h1>bouncebayes report: {html.escape(e.name)}</h1>",
-        f"<p class='meta'>{html.escape(e.description)}</p>",
-        "<h2>Result</h2>", _table(params, header),
-        f"<p>Friction regime of the posterior's simulated bounces: "
-        f"{100 * (1 - r['share_rolling']):.0f} % slide throughout the contact, "
-        f"{100 * r['share_rolling']:.0f} % leave rolling (where a bounce leaves rolling its "
-        f"rebound does not depend on mu).</p>",
-        "<h2>Diagnostics and warnings</h2>", f"<ul>{warns}</ul>",
+    return ["<h2>Result</h2>", _table(params, header),
+            f"<p>Friction regime of the posterior's simulated bounces: "
+            f"{100 * (1 - r['share_rolling']):.0f} % slide throughout the contact, "
+            f"{100 * r['share_rolling']:.0f} % leave rolling (where a bounce leaves rolling its "
+            f"rebound does not depend on mu).</p>",
+            "<h2>Diagnostics and warnings</h2>", f"<ul>{warns}</ul>"]
+
+
+def _experiment_section(result: InferenceResult) -> list[str]:
+    e, t = result.experiment, result.trials
+    s = result.summary()
+    return [
         "<h2>The experiment</h2>",
         _table([["ball", f"diameter {1e3 * e.ball.diameter:.4g} mm, mass "
                          f"{1e3 * e.ball.mass:.4g} g, E = {e.ball.youngs_modulus:.4g} Pa, "
@@ -317,26 +354,53 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
         "<h2>Method</h2>",
         f"<p><b>Likelihood {result.likelihood}</b>: {html.escape(MEANINGS[result.likelihood])}"
         f"</p><p><b>Sampler {result.sampler}</b>: "
-        f"{html.escape(SAMPLER_MEANINGS[result.sampler])}; {s['n_draws']} draws.</p>",
-        "<h2>What the posterior predicts</h2>",
-        f"<p>{html.escape(match['verdict'])}</p>",
-        _table(pred_rows, ["quantity (nominal incidence)", "unit", "mean", "sd",
-                           "90 % interval"]),
-        "<p>Contact time: "
-        + (f"the distribution is multimodal ({len(prop_summary['contact_time_modes_s'])} "
-           "modes)." if prop_summary["contact_time_multimodal"] else "one mode.")
-        + f" Failed simulations: {prop_summary['n_failed']}.</p>",
-        "<h2>Figures</h2>",
-    ]
+        f"{html.escape(SAMPLER_MEANINGS[result.sampler])}; {s['n_draws']} draws.</p>"]
+
+
+def _prediction_section(prop_summary: dict) -> list[str]:
+    at = prop_summary["at_nominal_incidence"]
+    pred_rows = [[k.replace("_", " "), v["unit"], f"{v['mean']:.4g}", f"{v['sd']:.3g}",
+                  f"[{v['ci90'][0]:.4g}, {v['ci90'][1]:.4g}]"]
+                 for k, v in at.items() if isinstance(v, dict)]
+    match = prop_summary["posterior_predictive_match"]
+    return ["<h2>What the posterior predicts</h2>",
+            f"<p>{html.escape(match['verdict'])}</p>",
+            _table(pred_rows, ["quantity (nominal incidence)", "unit", "mean", "sd",
+                               "90 % interval"]),
+            "<p>Contact time: "
+            + (f"the distribution is multimodal ({len(prop_summary['contact_time_modes_s'])} "
+               "modes)." if prop_summary["contact_time_multimodal"] else "one mode.")
+            + f" Failed simulations: {prop_summary['n_failed']}.</p>"]
+
+
+def _figures_section(figures) -> list[str]:
+    out = ["<h2>Figures</h2>", f"<p>{html.escape(FIGURES_NOTE)}</p>"]
     for i, (key, path) in enumerate(figures, start=1):
-        sections.append(f"<figure>{_img(path, CAPTIONS[key])}<figcaption>Figure {i}. "
-                        f"{html.escape(CAPTIONS[key])}</figcaption></figure>")
+        out.append(f"<figure>{_img(path, CAPTIONS[key])}<figcaption>Figure {i}. "
+                   f"{html.escape(CAPTIONS[key])}</figcaption></figure>")
+    return out
+
+
+def _provenance_section(result: InferenceResult, provenance: dict | None) -> list[str]:
+    e, t = result.experiment, result.trials
     if provenance is None:
         provenance = make_provenance(inputs={"experiment": e.source, "trials": t.source},
                                      seed=result.seed, config=result.config)
-    sections += ["<h2>Provenance</h2>", _table(provenance_rows(provenance)),
+    return ["<h2>Provenance</h2>", _table(provenance_rows(provenance)),
         "<h3>Experiment file</h3>",
         f"<pre>{html.escape(Path(e.source).read_text(encoding='utf-8'))}</pre>"]
+
+
+def render_report(result: InferenceResult, prop_summary: dict, figures, folder: str | Path,
+                  truth: dict | None = None, provenance: dict | None = None) -> Path:
+    """Write ``folder/report.html``: one file, figures embedded, opens offline. ``provenance``:
+    the run's record (:func:`bouncebayes._provenance.provenance`), made here if not given."""
+    e = result.experiment
+    sections = [f"<h1>bouncebayes report: {html.escape(e.name)}</h1>",
+                f"<p class='meta'>{html.escape(e.description)}</p>",
+                *_result_section(result, truth), *_experiment_section(result),
+                *_prediction_section(prop_summary), *_figures_section(figures),
+                *_provenance_section(result, provenance)]
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>bouncebayes: "
             f"{html.escape(e.name)}</title><style>{CSS}</style></head><body>"
             + "\n".join(sections) + "</body></html>\n")
