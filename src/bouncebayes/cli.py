@@ -18,8 +18,8 @@ from threadpoolctl import threadpool_limits
 
 from ._cli_track import add_track_subcommand
 from ._version import __version__
-from .model import (NORMAL_LAWS, PAPER_BALL, STANDARD_GRAVITY, Ball, SimulationWarning, simulate,
-                    simulate_history)
+from .model import (HERTZ_OVERLAP_LIMIT, NORMAL_LAWS, PAPER_BALL, STANDARD_GRAVITY, Ball,
+                    SimulationWarning, simulate, simulate_history)
 
 # Quantities printed by `simulate`, with units.
 _SIMULATE_ROWS = (
@@ -121,6 +121,11 @@ def run_simulate(args: argparse.Namespace) -> int:
     if result.n_failed:
         raise UserError(f"the bounce could not be solved: {result.failure_summary()}")
     row = result.item()
+    if not row["hertz_valid"]:
+        print(f"bouncebayes simulate: warning: the maximum overlap, "
+              f"{row['max_overlap'] * 1e3:.4g} mm, exceeds {HERTZ_OVERLAP_LIMIT:.0%} of the ball's "
+              f"radius ({ball.radius * 1e3:.4g} mm): beyond the small strains of Hertz's contact, "
+              f"so these numbers are the model's, not a real ball's", file=sys.stderr)
     if args.json:
         print(json.dumps({k: row[k] for k in _JSON_KEYS}))
     else:

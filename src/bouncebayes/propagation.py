@@ -244,7 +244,8 @@ def load_propagation(folder: str | Path) -> Propagation:
                       peak_normal_force=a["peak_normal_force"],
                       peak_friction_force=a["peak_friction_force"], max_overlap=nan,
                       separation_overlap=nan, time_of_peak_normal_force=nan,
-                      rolling=a["rolling"], closed_form=np.zeros(n, bool), status=a["status"],
+                      rolling=a["rolling"], hertz_valid=a["status"] == 0,
+                      closed_form=np.zeros(n, bool), status=a["status"],
                       n_steps=np.zeros(n, np.int64))
     histories = {k[len("history_"):]: v for k, v in a.items() if k.startswith("history_")}
     theta = {k: np.array(v) for k, v in json.loads(str(a["theta"])).items()}

@@ -10,6 +10,10 @@ from ._config import STANDARD_GRAVITY as STANDARD_GRAVITY
 from ._config import Ball as Ball
 from ._config import SolverConfig as SolverConfig
 from ._config import damping_unit as damping_unit
+from ._domain import HERTZ_OVERLAP_LIMIT as HERTZ_OVERLAP_LIMIT
+from ._domain import PARAMETER_DOMAINS as PARAMETER_DOMAINS
+from ._domain import Domain as Domain
+from ._domain import parameter_domain as parameter_domain
 from ._simulate import Bounces as Bounces
 from ._simulate import SimulationWarning as SimulationWarning
 from ._simulate import Status as Status

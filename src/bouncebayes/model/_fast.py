@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _kernel as K
-from ._config import Ball, SolverConfig
+from ._config import SolverConfig
 
 # Table quantities, all in scaled units of the unit normal problem.
 T_E, T_TC, T_FN, T_DMAX, T_DSEP, T_TPK, T_PPK = range(7)
@@ -103,11 +103,12 @@ _UNIT = {"mu": 0.0, "speed": 1.0, "angle": 0.0, "spin": 0.0, "inclination": 0.0,
 
 
 def _unit_prepared(law: str, damping: np.ndarray, gamma: np.ndarray):
-    from ._simulate import _prepare
+    from ._simulate import prepare_raw
 
-    unit = Ball(radius=1.0, mass=1.0, youngs_modulus=0.75, poisson_ratio=0.0)
-    return _prepare(unit, _UNIT | {"eta": damping, "gravity": gamma}, law, TABLE_SOLVER,
-                    "raise")
+    arrays = {k: np.broadcast_to(v, damping.shape)
+              for k, v in (_UNIT | {"eta": damping, "gravity": gamma}).items()}
+    return prepare_raw(1.0, 1.0, 4.0 / 3.0, 0.4, arrays, np.zeros(damping.shape, bool), law,
+                       TABLE_SOLVER.max_contact_time_factor)
 
 
 def _solve_unit(law: str, damping: np.ndarray, gamma: np.ndarray) -> np.ndarray:

@@ -46,6 +46,8 @@ ST_INVALID = 1
 ST_NO_SEPARATION = 2
 ST_MAX_STEPS = 3
 ST_STEP_UNDERFLOW = 4
+ST_NONFINITE = 5
+ST_TIMEOUT = 6  # set by the Python driver for elements it did not reach before its deadline
 
 # Events.
 EV_NONE, EV_SEPARATION, EV_STICK, EV_SLIP, EV_MAX_OVERLAP = 0, 1, 2, 3, 4
@@ -309,6 +311,8 @@ def dopri_step(y, h, p, phase, k, tmp, y1, scale, rtol, atol):
 @njit(cache=True)
 def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist, res):
     """Integrate one contact phase from first touch to separation; fill ``res``; return status."""
+    if not finite_inputs(p, y0, scale, h_max, t_max):
+        return ST_NONFINITE
     y = y0.copy()
     y1 = np.empty(N_STATE)
     work = np.empty(N_STATE)
@@ -324,7 +328,8 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
     fn_peak, t_fn_peak, v_fn_peak = fn0, 0.0, y[S_V]
     ft_peak = abs(friction_force(fn0, phase, p))
     d_max = max(y[S_D], 0.0)
-    n_steps = 0
+    n_steps = 0  # accepted steps
+    n_attempts = 0  # accepted and rejected: what max_steps caps
     n_switch = 0
     io = record_history(-1.0, 0.0, y, q, 0.0, p, phase, t_out, hist, 0, work)
     # Event functions and the force rate at the start of the step, carried between steps.
@@ -333,16 +338,17 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
     g_phase = event_value(kind, y, p, phase) if kind != EV_NONE else 0.0
     rate0 = normal_force_rate(y, k[0], p)
     while True:
-        if n_steps >= max_steps:
+        if n_attempts >= max_steps:
             return ST_MAX_STEPS
         if t >= t_max:
             return ST_NO_SEPARATION
         h = min(h, h_max)
+        if not (h >= h_min):  # also catches NaN
+            return ST_STEP_UNDERFLOW if h < h_min else ST_NONFINITE
+        n_attempts += 1
         err = dopri_step(y, h, p, phase, k, tmp, y1, scale, rtol, atol)
         if not (err <= 1.0):  # also catches NaN
             h *= MIN_FACTOR if err != err else max(MIN_FACTOR, SAFETY * err ** -0.2)
-            if h < h_min:
-                return ST_STEP_UNDERFLOW
             continue
         n_steps += 1
         have_q = False
@@ -435,6 +441,21 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
             g_phase = event_value(kind, y, p, phase) if kind != EV_NONE else 0.0
             rate0 = normal_force_rate(y, k[0], p)
         h *= MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** -0.2)
+
+
+@njit(cache=True)
+def finite_inputs(p, y0, scale, h_max, t_max):
+    """Whether the element's arrays are finite and its step and time limits positive (inputs
+    that overflowed while being prepared would otherwise give infinite step sizes)."""
+    if not (0.0 < h_max < math.inf and 0.0 < t_max < math.inf):
+        return False
+    for i in range(N_STATE):
+        if not (math.isfinite(y0[i]) and 0.0 < scale[i] < math.inf):
+            return False
+    for i in range(P_DSCALE + 1):
+        if not math.isfinite(p[i]):
+            return False
+    return True
 
 
 @njit(cache=True, parallel=True)

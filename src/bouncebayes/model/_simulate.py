@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 import warnings
 from dataclasses import dataclass, fields
 from enum import IntEnum
@@ -14,6 +15,7 @@ from .._validate import (as_float_array, broadcast, check_array, check_choice, i
 from . import _kernel as K
 from ._closed_form import HERTZ_CONTACT_TIME_CONSTANT
 from ._config import PAPER_BALL, STANDARD_GRAVITY, Ball, SolverConfig, check_normal_law
+from ._domain import HERTZ_OVERLAP_LIMIT, PARAMETER_DOMAINS, parameter_domain
 
 Errors = Literal["raise", "flag"]
 Method = Literal["auto", "ode"]
@@ -28,6 +30,8 @@ class Status(IntEnum):
     NO_SEPARATION = K.ST_NO_SEPARATION
     MAX_STEPS = K.ST_MAX_STEPS
     STEP_UNDERFLOW = K.ST_STEP_UNDERFLOW
+    NON_FINITE = K.ST_NONFINITE
+    TIMEOUT = K.ST_TIMEOUT
 
     @property
     def message(self) -> str:
@@ -42,10 +46,16 @@ _STATUS_MESSAGES = {
                           "SolverConfig.max_contact_time_factor Hertz contact times: damping "
                           "this strong stops it on the surface; raise the factor if a long "
                           "contact is expected",
-    Status.MAX_STEPS: "the solver used SolverConfig.max_steps steps without finishing; raise "
-                      "max_steps or loosen rtol/atol",
+    Status.MAX_STEPS: "the solver made SolverConfig.max_steps step attempts (accepted or "
+                      "rejected) without finishing; raise max_steps or loosen rtol/atol",
     Status.STEP_UNDERFLOW: "the step size fell below 1e-12 of the contact time scale "
                            "(the equations are too stiff at these parameters)",
+    Status.NON_FINITE: "a quantity of the solver overflowed or was not a number (inputs far "
+                       "outside any real ball's range reached the solver); check the units of "
+                       "the ball and of the incidence",
+    Status.TIMEOUT: "not attempted: the batch used up SolverConfig.time_limit seconds in the "
+                    "solver before reaching this bounce; raise time_limit (or None) or split "
+                    "the batch",
 }
 
 
@@ -59,7 +69,8 @@ class Bounces:
 
     Velocities are in the plane-aligned frame at the moment of separation; the rebound angle is
     measured from the plane normal in degrees (positive: the ball keeps moving forward); spin is
-    counter-clockwise positive. Failed elements hold NaN and a non-zero ``status``.
+    counter-clockwise positive. Failed elements hold NaN and a non-zero ``status``; bounces
+    beyond the validity of Hertz's contact have ``hertz_valid`` False.
     """
 
     rebound_speed: np.ndarray  #: m/s
@@ -74,6 +85,10 @@ class Bounces:
     separation_overlap: np.ndarray  #: m, overlap when the normal force vanished
     time_of_peak_normal_force: np.ndarray  #: s after first contact
     rolling: np.ndarray  #: bool, the contact point was not slipping at separation
+    #: bool, solved and inside the validity of Hertz's small-strain contact: the maximum overlap
+    #: stays within ``HERTZ_OVERLAP_LIMIT`` (0.1) of the radius. Where False the numbers are
+    #: the model's, but a real ball deforms beyond what the model describes.
+    hertz_valid: np.ndarray
     closed_form: np.ndarray  #: bool, solved by the tabulated closed form (not the ODE)
     status: np.ndarray  #: int8 codes of :class:`Status`
     n_steps: np.ndarray  #: accepted solver steps
@@ -105,12 +120,14 @@ class Bounces:
     def item(self, index=()) -> dict[str, float | str]:
         """The results of one bounce as plain Python values (for JSON and tables)."""
         row = {f.name: getattr(self, f.name)[index] for f in fields(self)}
-        out: dict[str, float | str] = {k: float(v) for k, v in row.items()
-                                       if k not in ("rolling", "status", "n_steps", "closed_form")}
+        flags = ("rolling", "hertz_valid", "closed_form")
+        out: dict[str, float | str | bool] = {k: float(v) for k, v in row.items()
+                                              if k not in flags + ("status", "n_steps")}
         out["regime"] = str(self.regime[index])
         out["status"] = Status(int(row["status"])).name
         out["n_steps"] = int(row["n_steps"])
-        out["closed_form"] = bool(row["closed_form"])
+        for k in flags[1:]:
+            out[k] = bool(row[k])
         return out
 
 
@@ -167,18 +184,25 @@ _BENIGN = {"mu": 0.0, "eta": 0.0, "speed": 1.0, "angle": 0.0, "spin": 0.0, "incl
            "youngs_modulus": 1.0e6, "gravity": 0.0}
 
 
-def _check_inputs(values: dict, errors: Errors) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Validate and broadcast; in ``flag`` mode mark bad elements instead of raising."""
+def _check_inputs(values: dict, errors: Errors,
+                  normal_law: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Validate (definition, then physical domain) and broadcast; in ``flag`` mode mark bad
+    elements instead of raising."""
+    domains = {k: parameter_domain(k, normal_law) for k in values if k in PARAMETER_DOMAINS}
     if errors == "raise":
         arrays = {k: check_array(k, v, unit=_ARG_RANGES[k][0], low=_ARG_RANGES[k][1],
                                  high=_ARG_RANGES[k][2], low_open=_ARG_RANGES[k][3],
                                  high_open=_ARG_RANGES[k][4]) for k, v in values.items()}
+        for k, domain in domains.items():
+            domain.check(arrays[k])
         arrays = broadcast(**arrays)
         return arrays, np.zeros(next(iter(arrays.values())).shape, dtype=bool)
     arrays = broadcast(**{k: as_float_array(k, v) for k, v in values.items()})
     bad = np.zeros(next(iter(arrays.values())).shape, dtype=bool)
     for k, arr in arrays.items():
         ok = in_range_mask(arr, *_ARG_RANGES[k][1:])
+        if k in domains:
+            ok &= domains[k].contains(arr)
         bad |= ~ok
         arrays[k] = np.where(ok, arr, _BENIGN[k])
     return arrays, bad
@@ -186,20 +210,30 @@ def _check_inputs(values: dict, errors: Errors) -> tuple[dict[str, np.ndarray], 
 
 def _prepare(ball: Ball, values: dict, normal_law: str, solver: SolverConfig,
              errors: Errors) -> _Prepared:
-    arrays, bad = _check_inputs(values, errors)
+    arrays, bad = _check_inputs(values, errors, normal_law)
+    r = ball.radius
+    return prepare_raw(r, ball.mass, 4.0 / 3.0 * math.sqrt(r) / (1.0 - ball.poisson_ratio**2),
+                       ball.moment_of_inertia, arrays, bad, normal_law,
+                       solver.max_contact_time_factor)
+
+
+def prepare_raw(radius: float, mass: float, stiffness_per_modulus: float, inertia: float,
+                arrays: dict, bad: np.ndarray, normal_law: str,
+                max_contact_time_factor: float) -> _Prepared:
+    """Kernel arrays from checked, broadcast inputs (no validation: the scaled unit problem
+    of the closed-form table is no real ball)."""
     shape = bad.shape
     a = {k: np.ascontiguousarray(v, dtype=float).ravel() for k, v in arrays.items()}
     n = bad.size
-    r = ball.radius
+    r = radius
     theta = np.radians(a["angle"])
     incl = np.radians(a["inclination"])
     speed = a["speed"]
     params = np.empty((n, K.N_PARAMS))
     params[:, K.P_R] = r
-    params[:, K.P_M] = ball.mass
-    params[:, K.P_K] = (4.0 / 3.0 * math.sqrt(r) / (1.0 - ball.poisson_ratio**2)
-                        * a["youngs_modulus"])
-    params[:, K.P_I] = ball.moment_of_inertia
+    params[:, K.P_M] = mass
+    params[:, K.P_K] = stiffness_per_modulus * a["youngs_modulus"]
+    params[:, K.P_I] = inertia
     params[:, K.P_MU] = a["mu"]
     params[:, K.P_ETA] = a["eta"]
     params[:, K.P_GX] = a["gravity"] * np.sin(incl)
@@ -211,7 +245,7 @@ def _prepare(ball: Ball, values: dict, normal_law: str, solver: SolverConfig,
     y0[:, K.S_V] = -speed * np.cos(theta)
     y0[:, K.S_W] = a["spin"]
     status = np.where(bad.ravel(), K.ST_INVALID, K.ST_OK).astype(np.int8)
-    return _Prepared(params, y0, status, shape, solver.max_contact_time_factor)
+    return _Prepared(params, y0, status, shape, max_contact_time_factor)
 
 
 def solve_prepared(prep: _Prepared, solver: SolverConfig,
@@ -232,9 +266,27 @@ def solve_rows(prep: _Prepared, solver: SolverConfig,
     params, y0, scale, h_max, t_max = prep.ode_arrays(rows)
     status = prep.status[rows].copy()
     res = np.full((rows.size, K.N_RESULTS), np.nan)
-    K.solve_batch(params, y0, scale, h_max, t_max, solver.rtol, solver.atol, solver.max_steps,
-                  status, res)
+    solve_chunked(params, y0, scale, h_max, t_max, solver, status, res)
     return res, status
+
+
+ODE_CHUNK = 1024  # bounces per solver call between two looks at the clock
+
+
+def solve_chunked(params, y0, scale, h_max, t_max, solver: SolverConfig, status: np.ndarray,
+                  res: np.ndarray) -> None:
+    """The compiled solver over all rows, in chunks of ``ODE_CHUNK`` against the deadline of
+    ``solver.time_limit``: the first chunk always runs, later ones only before the deadline;
+    rows of chunks not started in time get ``TIMEOUT``. A chunk, once started, finishes (each
+    bounce is bounded by ``max_steps`` attempts)."""
+    deadline = None if solver.time_limit is None else time.monotonic() + solver.time_limit
+    for start in range(0, status.size, ODE_CHUNK):
+        part = slice(start, start + ODE_CHUNK)
+        if start and deadline is not None and time.monotonic() > deadline:
+            status[start:][status[start:] == K.ST_OK] = K.ST_TIMEOUT
+            return
+        K.solve_batch(params[part], y0[part], scale[part], h_max[part], t_max[part],
+                      solver.rtol, solver.atol, solver.max_steps, status[part], res[part])
 
 
 def _solve_auto(prep: _Prepared, normal_law: str,
@@ -249,8 +301,11 @@ def _solve_auto(prep: _Prepared, normal_law: str,
     return res, status
 
 
-def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bounces:
+def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...],
+              radius: float) -> Bounces:
     ok = status == K.ST_OK  # rows that are not OK hold NaN already (both solver paths)
+    with np.errstate(invalid="ignore"):
+        small_strain = res[:, K.R_D_MAX] <= HERTZ_OVERLAP_LIMIT * radius
     u, vn, w = res[:, K.R_U], res[:, K.R_V], res[:, K.R_W]
 
     def shaped(x):
@@ -269,6 +324,7 @@ def _assemble(res: np.ndarray, status: np.ndarray, shape: tuple[int, ...]) -> Bo
         separation_overlap=shaped(res[:, K.R_D]),
         time_of_peak_normal_force=shaped(res[:, K.R_T_FN_PEAK]),
         rolling=shaped(ok & (res[:, K.R_PHASE] == 0)),
+        hertz_valid=shaped(ok & small_strain),
         closed_form=shaped(ok & (res[:, K.R_STEPS] == 0)),
         status=shaped(status),
         n_steps=shaped(np.where(ok, np.nan_to_num(res[:, K.R_STEPS]), 0).astype(np.int64)),
@@ -324,7 +380,7 @@ def simulate(ball: Ball = PAPER_BALL, *, mu, eta, speed, angle, spin=0.0, inclin
         res, status = solve_prepared(prep, solver)
     else:
         res, status = _solve_auto(prep, normal_law, solver)
-    out = _assemble(res, status, prep.shape)
+    out = _assemble(res, status, prep.shape, ball.radius)
     if errors == "raise" and out.n_failed:
         warnings.warn(f"{out.n_failed} of {status.size} bounces could not be solved: "
                       f"{out.failure_summary()}", SimulationWarning, stacklevel=2)
