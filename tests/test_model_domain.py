@@ -135,8 +135,8 @@ y0 = np.array([0.0, 0.0, 1.0, -2.0, 0.0]); scale = np.ones(5)
 for h_max, t_max in ((math.inf, math.inf), (math.inf, math.inf), (1e-5, math.inf),
                      (math.nan, 1.0)):
     t0 = time.monotonic()
-    st = K.solve_contact(p, y0, scale, h_max, t_max, 1e-10, 1e-10, 20000, np.empty(0),
-                         np.empty((0, K.N_HISTORY)), np.empty(K.N_RESULTS))
+    st = K.solve_contact(p, y0, scale, h_max, t_max, 1e-10, 1e-10, 20000,
+                         np.empty((0, K.N_SEGMENT)), np.empty(K.N_RESULTS))
     print(st, time.monotonic() - t0)
 """
 
@@ -161,8 +161,7 @@ def test_overflowing_state_stops_with_a_status():
     p[[K.P_R, K.P_M, K.P_K, K.P_I, K.P_GY, K.P_DSCALE]] = [0.01, 0.01, 1e300, 4e-7, 9.8, 1e-3]
     t0 = time.monotonic()
     st = K.solve_contact(p, np.array([0.0, 0.0, 1.0, -2.0, 0.0]), np.ones(5), 1e-4, 1.0, 1e-10,
-                         1e-10, 20000, np.empty(0), np.empty((0, K.N_HISTORY)),
-                         np.empty(K.N_RESULTS))
+                         1e-10, 20000, np.empty((0, K.N_SEGMENT)), np.empty(K.N_RESULTS))
     assert st in (Status.STEP_UNDERFLOW, Status.MAX_STEPS, Status.NON_FINITE)
     assert time.monotonic() - t0 < 10.0
 
