@@ -147,7 +147,7 @@ def at(a, i):
     return a[0] if a.shape[0] == 1 else a[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def valid(values, bounds, i):
     """Whether every input of element ``i`` lies inside its bounds (False for NaN)."""
     for j in range(N_INPUTS):
@@ -161,16 +161,44 @@ DEG = math.pi / 180.0
 
 
 @njit(cache=True)
-def element(values, ball, i):
-    """Derived quantities of element ``i``: (mu, eta, k, gx, gy, u0, vn, w0) with the incident
-    normal speed ``vn`` > 0 (towards the plane) and the Hertz stiffness ``k``."""
-    angle = at(values[I_ANGLE], i) * DEG
-    speed = at(values[I_SPEED], i)
+def all_valid(values, bounds):
+    """Whether every element of every input lies in its bounds (one pass per input array: the
+    kernels then skip the per-element check)."""
+    for j in range(N_INPUTS):
+        a = values[j]
+        lo, hi = bounds[j, 0], bounds[j, 1]
+        bad = 0
+        for k in range(a.shape[0]):
+            bad += not (lo <= a[k] <= hi)
+        if bad:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def gravity_parts(values, i):
+    """Tangential and normal gravity (gx, gy) of element ``i``."""
     incl = at(values[I_INCL], i) * DEG
     g = at(values[I_G], i)
-    return (at(values[I_MU], i), at(values[I_ETA], i), ball[B_KFAC] * at(values[I_E], i),
-            g * math.sin(incl), g * math.cos(incl), speed * math.sin(angle),
-            speed * math.cos(angle), at(values[I_SPIN], i))
+    return g * math.sin(incl), g * math.cos(incl)
+
+
+@njit(cache=True, inline="always")
+def element_with(values, ball, i, gx, gy):
+    """Derived quantities of element ``i`` whose gravity components are (gx, gy): (mu, eta, k,
+    gx, gy, u0, vn, w0) with the incident normal speed ``vn`` > 0 (towards the plane) and the
+    Hertz stiffness ``k``."""
+    angle = at(values[I_ANGLE], i) * DEG
+    speed = at(values[I_SPEED], i)
+    return (at(values[I_MU], i), at(values[I_ETA], i), ball[B_KFAC] * at(values[I_E], i), gx,
+            gy, speed * math.sin(angle), speed * math.cos(angle), at(values[I_SPIN], i))
+
+
+@njit(cache=True, inline="always")
+def element(values, ball, i):
+    """Derived quantities of element ``i`` (see :func:`element_with`)."""
+    gx, gy = gravity_parts(values, i)
+    return element_with(values, ball, i, gx, gy)
 
 
 @njit(cache=True)

@@ -132,7 +132,8 @@ class BounceModel:
         args = (theta, self._cols, cond, cond_rows, self.inputs.ball, self.bounds, main, x_max,
                 gamma_max, kv)
         if m <= _fast.SERIAL_MAX:
-            n_fallback = _fast.rebound_range(*args, 0, m, out, status, rolling, ok, fallback)
+            n_fallback = _fast.rebound_range(*args, 0, theta.shape[0], out, status, rolling, ok,
+                                             fallback)
         else:
             n_fallback = _fast.rebound_parallel(*args, out, status, rolling, ok, fallback)
         if n_fallback:

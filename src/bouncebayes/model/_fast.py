@@ -42,8 +42,8 @@ import numpy as np
 from numba import njit, prange
 
 from . import _kernel as K
-from ._arrays import (B_I, B_KFAC, B_M, B_R, I_E, I_ETA, I_MU, I_SPIN, at, element, unit_inputs,
-                      valid)
+from ._arrays import (B_I, B_KFAC, B_M, B_R, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPIN, all_valid, at,
+                      element, element_with, gravity_parts, unit_inputs, valid)
 from ._config import SolverConfig
 from ._domain import HERTZ_OVERLAP_LIMIT
 from ._ode import sample, solve_rows, solve_with_segments
@@ -61,7 +61,7 @@ NX, NG = TABLE_NODES  # the kernels are written for these sizes (eight gravity t
 # compression before the force peak): a bounce evaluates one piece, 4x fewer terms than one
 # global table of the same accuracy.
 COMPRESSION_PIECES = 4
-COMPRESSION_NODES = (10, 6, 20)
+COMPRESSION_NODES = (10, 8, 20)
 # Domain: KV zeta <= 0.6 (beyond ~0.7 the initial force eta V becomes the peak: a kink),
 # HC chi <= 2 (restitution ~0.3; the factor 1 - 1.5 chi |D'| stays positive, so the ball
 # separates at zero overlap without a kink), gravity number <= 0.05 (beyond, strong damping
@@ -99,13 +99,8 @@ class NormalTable:
 
     @property
     def compression_gravity_first(self) -> np.ndarray:
-        """The compression table as the kernels read it: (piece, NG, 2 n_sigma * n_damping),
-        its gravity axis padded with zero terms to NG."""
-        pieces, n2, nxc, ngc = self.compression.shape
-        padded = np.zeros((pieces, n2, nxc, NG))
-        padded[..., :ngc] = self.compression
-        return np.ascontiguousarray(
-            np.stack([_gravity_first(c) for c in padded]))
+        """The compression table as the kernels read it: (piece, NG, 2 n_sigma * n_damping)."""
+        return np.ascontiguousarray(np.stack([_gravity_first(c) for c in self.compression]))
 
 
 def _gravity_first(coef: np.ndarray) -> np.ndarray:
@@ -222,17 +217,27 @@ def _chebyshev_basis(u, out):
         out[i] = 2.0 * u * out[i - 1] - out[i - 2]
 
 
-@njit(cache=True)
-def _series(c, u):
-    """Clenshaw sum of a 1-D Chebyshev series at u in [-1, 1]."""
-    b1 = 0.0
-    b2 = 0.0
-    for j in range(c.shape[0] - 1, 0, -1):
-        b1, b2 = 2.0 * u * b1 - b2 + c[j], b1
-    return u * b1 - b2 + c[0]
+@njit(cache=True, inline="always")
+def cheb_basis(u, out, n):
+    """T_0(u) .. T_{n-1}(u) (n >= 4) by doubling: T_2k = 2 T_k^2 - 1 and
+    T_{k+j} = 2 T_k T_j - T_{k-j}. The three-term recurrence is a chain of n dependent
+    multiply-adds; this is a tree of depth ~2 log2(n), whose branches the processor runs side
+    by side (the basis is on the critical path of every bounce)."""
+    out[0] = 1.0
+    out[1] = u
+    out[2] = 2.0 * u * u - 1.0
+    out[3] = 2.0 * u * out[2] - u
+    k = 4
+    while k < n:
+        tk = 2.0 * out[k // 2] * out[k // 2] - 1.0
+        out[k] = tk
+        two_tk = 2.0 * tk
+        for j in range(1, min(k, n - k)):
+            out[k + j] = two_tk * out[j] - out[k - j]
+        k *= 2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def gravity_rows(c, gamma, gamma_max, start, stop, rows):
     """rows[k] = sum_j c[j, k] T_j(u) for k in [start, stop), u the gravity variable: the
     gravity axis of a gravity-first table contracted (eight terms written out, so that the
@@ -240,21 +245,21 @@ def gravity_rows(c, gamma, gamma_max, start, stop, rows):
     v = 2.0 * gamma / gamma_max - 1.0
     t2 = 2.0 * v * v - 1.0
     t3 = 2.0 * v * t2 - v
-    t4 = 2.0 * v * t3 - t2
-    t5 = 2.0 * v * t4 - t3
-    t6 = 2.0 * v * t5 - t4
-    t7 = 2.0 * v * t6 - t5
+    t4 = 2.0 * t2 * t2 - 1.0  # the doubling formulas of cheb_basis
+    t5 = 2.0 * t4 * v - t3
+    t6 = 2.0 * t4 * t2 - t2
+    t7 = 2.0 * t4 * t3 - v
     c0, c1, c2, c3, c4, c5, c6, c7 = c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
     for k in range(start, stop):
         rows[k] = (c0[k] + c1[k] * v + c2[k] * t2 + c3[k] * t3 + c4[k] * t4 + c5[k] * t5
                    + c6[k] * t6 + c7[k] * t7)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def x_values(rows, n, q0, q1, u, tx, vals):
     """vals[q] = sum_i rows[q n + i] T_i(u) for q in [q0, q1): the damping axis (basis once,
     then dot products with four partial sums)."""
-    _chebyshev_basis(u, tx[:n])
+    cheb_basis(u, tx, n)
     for q in range(q0, q1):
         base = q * n
         a0 = a1 = a2 = a3 = 0.0
@@ -268,7 +273,7 @@ def x_values(rows, n, q0, q1, u, tx, vals):
         vals[q] = (a0 + a1) + (a2 + a3)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def normal_scales(m, k, eta, gy, vn, kv):
     """(delta*, t*, damping number, damping variable x, gravity number) of a normal impact."""
     d_star = (m * vn * vn / k) ** 0.4
@@ -281,7 +286,7 @@ def normal_scales(m, k, eta, gy, vn, kv):
     return d_star, d_star / vn, damping, x, gy * d_star / (vn * vn)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
     """Closed-form tangential outcome (docs/model.md) given the normal impulse per unit mass:
     returns (exact, u, w, phase, slides); ``exact`` is False where only the ODE can tell
@@ -307,61 +312,101 @@ def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
 
 
 @njit(cache=True)
-def _force_at_impulse(comp, x, gamma, x_max, gamma_max, target, work, tx, ab):
-    """Normal force (scaled) when the impulse reaches ``target`` during compression."""
+def _force_at_impulse(comp, x, gamma, x_max, gamma_max, target, t_peak, work, tx, ab):
+    """Normal force (scaled) when the impulse reaches ``target`` during compression.
+
+    The compression table gives the impulse Pi and the force Phi as Chebyshev series in
+    sigma = sqrt(t / t_peak); Pi(sigma) = target is solved by Newton's method with
+    dPi/dsigma = Phi * 2 sigma t_peak (dPi/dt = Phi). Pi is increasing and convex in sigma, and
+    sigma_0 = (target / Pi(1))^(1/5) lies at or beyond the root (Pi grows at most like
+    sigma^5, the undamped start), so the iterates descend onto it; a bracket catches any
+    step that would leave it.
+    """
     n_pieces, ns2 = comp.shape[0], 2 * COMPRESSION_NODES[2]
-    nxc = comp.shape[2] // ns2
+    nxc, ns = comp.shape[2] // ns2, COMPRESSION_NODES[2]
     width = x_max / n_pieces
     piece = min(int(x / width), n_pieces - 1)
     gravity_rows(comp[piece], gamma, gamma_max, 0, comp.shape[2], work)
     # the local variable of the piece mapped like the global one: x' in [0, x_max]
     x_values(work, nxc, 0, ns2, 2.0 * (x - piece * width) * n_pieces / x_max - 1.0, tx, ab)
-    ns = ns2 // 2
-    a, b = ab[:ns], ab[ns:ns2]
-    # sigma: the impulse grows monotonically along the compression, like sigma^2 to sigma^5
-    # near 0, where regula falsi creeps; so first bracket the root within a factor of 4
-    hi, f_hi = 1.0, _series(a, 1.0) - target
-    lo = 0.25
-    while lo > 1e-7:
-        f_lo = _series(a, 2.0 * lo - 1.0) - target
-        if f_lo <= 0.0:
-            break
-        hi, f_hi = lo, f_lo
-        lo *= 0.25
-    else:
-        lo, f_lo = 0.0, _series(a, -1.0) - target
-    sigma = 0.5 * (lo + hi)
-    side = 0
-    # Illinois regula falsi on the bracket, stopped on the bracket's width (1e-13 in sigma:
-    # far below the table's accuracy; a test on |f| could stall on rounding)
-    for _ in range(200):
-        if hi - lo <= 1e-13 or f_hi == f_lo:
-            break
-        sigma = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-        if not (lo < sigma < hi):
-            sigma = 0.5 * (lo + hi)
-        f = _series(a, 2.0 * sigma - 1.0) - target
-        if f == 0.0:
-            break
-        if f < 0.0:
-            lo, f_lo = sigma, f
-            if side == -1:
-                f_hi *= 0.5
-            side = -1
+    sigma = _first_guess(ab, ns, target, t_peak)
+    lo, hi = 0.0, 1.0
+    phi = 0.0
+    for _ in range(60):
+        pi, phi = _impulse_force(ab, ns, 2.0 * sigma - 1.0, tx)
+        f = pi - target
+        if f > 0.0:
+            hi = sigma
         else:
-            hi, f_hi = sigma, f
-            if side == 1:
-                f_lo *= 0.5
-            side = 1
-    return _series(b, 2.0 * sigma - 1.0)
+            lo = sigma
+        slope = phi * 2.0 * sigma * t_peak
+        step = f / slope if slope > 0.0 else math.inf
+        if abs(step) <= 3e-6:  # converged: quadratic, so the error after it is ~1e-11
+            sigma -= step
+            break
+        new = sigma - step
+        if not (lo <= new <= hi):  # a step out of the bracket: bisect instead
+            new = 0.5 * (lo + hi)
+        if hi - lo <= 1e-12:
+            break
+        sigma = new
+    return _impulse_force(ab, ns, 2.0 * sigma - 1.0, tx)[1]
+
+
+@njit(cache=True, inline="always")
+def _first_guess(ab, ns, target, t_peak):
+    """Root of the two-term model Pi ~ alpha sigma^2 + beta sigma^5 of the compression: alpha
+    from Pi''(0) = 2 t_peak Phi(0) (the initial force of Kelvin–Voigt), beta from Pi(1); both
+    sums are free (T_k(1) = 1, T_k(-1) = (-1)^k). Newton on the model from
+    (target / Pi(1))^(1/5), which lies at or beyond its root, descends onto it."""
+    pi_end = 0.0
+    phi_start = 0.0
+    sign = 1.0
+    for i in range(ns):
+        pi_end += ab[i]
+        phi_start += sign * ab[ns + i]
+        sign = -sign
+    if not pi_end > 0.0:
+        return 1.0
+    sigma = min(1.0, (target / pi_end) ** 0.2)
+    alpha = max(t_peak * phi_start, 0.0)
+    beta = pi_end - alpha
+    if beta <= 0.0:
+        return sigma
+    for _ in range(12):
+        s2 = sigma * sigma
+        s4 = s2 * s2
+        f = alpha * s2 + beta * s4 * sigma - target
+        step = f / (2.0 * alpha * sigma + 5.0 * beta * s4)
+        sigma -= step
+        if abs(step) <= 1e-3 * sigma:  # the model is only good to a few per cent anyway
+            break
+    return min(max(sigma, 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
+def _impulse_force(ab, ns, u, tx):
+    """(Pi, Phi) of the compression series at u = 2 sigma - 1 (one basis for both)."""
+    cheb_basis(u, tx, ns)
+    a0 = a1 = b0 = b1 = 0.0
+    for i in range(0, ns - 1, 2):
+        a0 += ab[i] * tx[i]
+        a1 += ab[i + 1] * tx[i + 1]
+        b0 += ab[ns + i] * tx[i]
+        b1 += ab[ns + i + 1] * tx[i + 1]
+    if ns % 2:
+        a0 += ab[ns - 1] * tx[ns - 1]
+        b0 += ab[2 * ns - 1] * tx[ns - 1]
+    return a0 + a1, b0 + b1
 
 
 @njit(cache=True)
-def _bounce_one(values, ball, i, main, comp, x_max, gamma_max, kv, rows, tx, vals, work, ab,
-                out):
-    """Closed-form bounce of element ``i`` with every output; returns a fallback reason."""
+def _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows, tx, vals,
+                work, ab, out):
+    """Closed-form bounce of element ``i`` (gravity components gx, gy) with every output;
+    returns a fallback reason (> 0), 0 when it slides, -1 when it rolls."""
     r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
-    mu, eta, k, gx, gy, u0, vn, w0 = element(values, ball, i)
+    mu, eta, k, gx, gy, u0, vn, w0 = element_with(values, ball, i, gx, gy)
     d_star, t_star, damping, x, gamma = normal_scales(m, k, eta, gy, vn, kv)
     if not (x <= x_max and gamma <= gamma_max):
         return FB_DOMAIN
@@ -385,7 +430,7 @@ def _bounce_one(values, ball, i, main, comp, x_max, gamma_max, kv, rows, tx, val
             x_values(rows, NX, T_PPK, N_TABLE, 2.0 * x / x_max - 1.0, tx, vals)
             if abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
                 phi = _force_at_impulse(comp, x, gamma, x_max, gamma_max,
-                                        abs(s0) / (slip_rate * vn), work, tx, ab)
+                                        abs(s0) / (slip_rate * vn), vals[T_TPK], work, tx, ab)
                 ft_peak = mu * max(phi, damping if kv else 0.0) * f_scale
     vn_out = vals[T_E] * vn
     out[O_SPEED, i], out[O_ANGLE, i] = speed_angle(u, vn_out)
@@ -403,27 +448,32 @@ def _bounce_one(values, ball, i, main, comp, x_max, gamma_max, kv, rows, tx, val
 
 
 @njit(cache=True)
-def bounce_range(values, ball, bounds, closed_form, main, comp, x_max, gamma_max, kv, start,
-                 stop, out, status, rolling, flags, fallback):
+def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max, gamma_max,
+                 kv, start, stop, out, status, rolling, flags, fallback):
     """Full closed-form bounces of elements [start, stop): outputs, status, flags (Hertz
-    validity, closed form) and fallback reasons; returns (invalid, fallback) counts."""
+    validity, closed form) and fallback reasons; returns (invalid, fallback) counts.
+    ``check_each``: whether elements may lie outside their bounds (see ``all_valid``)."""
     rows = np.empty(N_TABLE * NX)
     tx = np.empty(NX)
     vals = np.empty(N_TABLE)
     work = np.empty(comp.shape[2])
     ab = np.empty(2 * COMPRESSION_NODES[2])
     limit = HERTZ_OVERLAP_LIMIT * ball[B_R]
+    shared_gravity = values[I_INCL].shape[0] == 1 and values[I_G].shape[0] == 1
+    gx, gy = gravity_parts(values, 0)
     n_invalid = n_fallback = 0
     for i in range(start, stop):
         reason = FB_ODE
-        if not valid(values, bounds, i):
+        if check_each and not valid(values, bounds, i):
             fill_failed(out, i, status, K.ST_INVALID, rolling, flags)
             fallback[i] = FB_NONE
             n_invalid += 1
             continue
         if closed_form:
-            reason = _bounce_one(values, ball, i, main, comp, x_max, gamma_max, kv, rows, tx,
-                                 vals, work, ab, out)
+            if not shared_gravity:
+                gx, gy = gravity_parts(values, i)
+            reason = _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows,
+                                 tx, vals, work, ab, out)
         if reason > 0:
             fill_failed(out, i, status, K.ST_OK, rolling, flags)
             n_fallback += 1
@@ -438,16 +488,16 @@ def bounce_range(values, ball, bounds, closed_form, main, comp, x_max, gamma_max
 
 
 @njit(cache=True, parallel=True)
-def bounce_parallel(values, ball, bounds, closed_form, main, comp, x_max, gamma_max, kv, out,
-                    status, rolling, flags, fallback):
+def bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max, gamma_max,
+                    kv, out, status, rolling, flags, fallback):
     """:func:`bounce_range` over all elements, in parallel chunks; returns the counts."""
     n = status.shape[0]
     n_chunks = (n + CHUNK - 1) // CHUNK
     counts = np.zeros((n_chunks, 2), dtype=np.int64)
     for c in prange(n_chunks):
-        a, b = bounce_range(values, ball, bounds, closed_form, main, comp, x_max, gamma_max,
-                            kv, c * CHUNK, min(n, (c + 1) * CHUNK), out, status, rolling, flags,
-                            fallback)
+        a, b = bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                            gamma_max, kv, c * CHUNK, min(n, (c + 1) * CHUNK), out, status,
+                            rolling, flags, fallback)
         counts[c, 0] = a
         counts[c, 1] = b
     return counts[:, 0].sum(), counts[:, 1].sum()
@@ -459,11 +509,12 @@ def bounces(values, ball, bounds, closed_form: bool, tables, out, status, rollin
     ``tables`` of :func:`kernel_tables`; fallback rows are left for the ODE solver. Returns
     (invalid, fallback) counts."""
     main, comp, x_max, gamma_max, kv = tables
+    check_each = not all_valid(values, bounds)
     if status.size <= SERIAL_MAX:
-        return bounce_range(values, ball, bounds, closed_form, main, comp, x_max, gamma_max, kv,
-                            0, status.size, out, status, rolling, flags, fallback)
-    return bounce_parallel(values, ball, bounds, closed_form, main, comp, x_max, gamma_max, kv,
-                           out, status, rolling, flags, fallback)
+        return bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                            gamma_max, kv, 0, status.size, out, status, rolling, flags, fallback)
+    return bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                           gamma_max, kv, out, status, rolling, flags, fallback)
 
 
 # --- conditions fixed, parameters varying (samplers) -------------------------------------------
@@ -500,43 +551,52 @@ def prepare_conditions(values, ball, bounds, main, gamma_max, kv, cond, cond_row
             cond[C_STATE, c] = CS_OUTSIDE
 
 
-@njit(cache=True)
-def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, bounds, main, x_max, gamma_max, kv,
-                 rows, tx, vals, out, e):
-    """Rebound of parameter row ``r`` under condition ``c`` into flat element ``e``; returns
-    the status code, or -1 (rolling) / -2 (sliding) when solved, or -3 for the ODE."""
-    if cond[C_STATE, c] == CS_INVALID:
+@njit(cache=True, inline="always")
+def _pick(theta, r, col, cond, field, c):
+    """Parameter ``col`` of row ``r``, or the condition's value where it does not vary."""
+    return theta[r, col] if col >= 0 else cond[field, c]
+
+
+@njit(cache=True, inline="always")
+def _row_valid(theta, r, cols, bounds):
+    """Whether the varying parameters of row ``r`` lie in their bounds (False for NaN)."""
+    for k, index in ((0, I_MU), (1, I_ETA), (2, I_E), (3, I_SPIN)):
+        if cols[k] >= 0 and not bounds[index, 0] <= theta[r, cols[k]] <= bounds[index, 1]:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_max, kv, rows, tx,
+                 vals, out, e):
+    """Rebound of parameter row ``r`` (valid) under condition ``c`` into flat element ``e``;
+    returns -1 (rolling) / -2 (sliding) when solved, -3 for the ODE, or a status code."""
+    state = cond[C_STATE, c]
+    if state == CS_INVALID:
         return K.ST_INVALID
-    mu = theta[r, cols[0]] if cols[0] >= 0 else cond[C_MU, c]
-    eta = theta[r, cols[1]] if cols[1] >= 0 else cond[C_ETA, c]
-    modulus = theta[r, cols[2]] if cols[2] >= 0 else cond[C_E, c]
-    w0 = theta[r, cols[3]] if cols[3] >= 0 else cond[C_SPIN, c]
-    if not (bounds[I_MU, 0] <= mu <= bounds[I_MU, 1] and bounds[I_ETA, 0] <= eta
-            <= bounds[I_ETA, 1] and bounds[I_E, 0] <= modulus <= bounds[I_E, 1]
-            and bounds[I_SPIN, 0] <= w0 <= bounds[I_SPIN, 1]):
-        return K.ST_INVALID
-    m, vn = ball[B_M], cond[C_VN, c]
+    mu = _pick(theta, r, cols[0], cond, C_MU, c)
+    eta = _pick(theta, r, cols[1], cond, C_ETA, c)
+    vn = cond[C_VN, c]
     if cols[2] >= 0:  # the modulus varies: the normal impact is computed afresh
-        d_star, t_star, damping, x, gamma = normal_scales(m, ball[B_KFAC] * modulus, eta,
-                                                          cond[C_GY, c], vn, kv)
+        d_star, t_star, damping, x, gamma = normal_scales(
+            ball[B_M], ball[B_KFAC] * theta[r, cols[2]], eta, cond[C_GY, c], vn, kv)
         if not (x <= x_max and gamma <= gamma_max):
             return -3
         gravity_rows(main, gamma, gamma_max, 0, 2 * NX, rows)
-        source = rows
+        x_values(rows, NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
     else:
-        if cond[C_STATE, c] == CS_OUTSIDE:
+        if state == CS_OUTSIDE:
             return -3
         t_star, gamma = cond[C_TSTAR, c], cond[C_GAMMA, c]
-        damping = eta * cond[C_CZ, c]
-        x = np.cbrt(damping) if kv else eta * vn
+        x = np.cbrt(eta * cond[C_CZ, c]) if kv else eta * vn
         if not x <= x_max:
             return -3
-        source = cond_rows[c]
-    x_values(source, NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
+        x_values(cond_rows[c], NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
     tc = vals[T_TC] * t_star
     impulse = vn * (1.0 + vals[T_E] + gamma * vals[T_TC])
-    exact, u, w, phase, slides = tangential_one(ball[B_R], m, ball[B_I], mu, cond[C_GX, c],
-                                                cond[C_U0, c], w0, tc, impulse)
+    exact, u, w, phase, slides = tangential_one(
+        ball[B_R], ball[B_M], ball[B_I], mu, cond[C_GX, c], cond[C_U0, c],
+        _pick(theta, r, cols[3], cond, C_SPIN, c), tc, impulse)
     if not exact:
         return -3
     out[RB_SPEED, e], out[RB_ANGLE, e] = speed_angle(u, vals[T_E] * vn)
@@ -546,43 +606,54 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, bounds, main, x_max, 
 
 
 @njit(cache=True)
-def rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, start,
-                  stop, out, status, rolling, ok, fallback):
-    """Rebounds of the flat elements [start, stop) (row-major over parameter rows x
-    conditions); marks ``fallback`` for the ODE and returns how many."""
+def rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, r0,
+                  r1, out, status, rolling, ok, fallback):
+    """Rebounds of parameter rows [r0, r1) under every condition, into the flat elements
+    r * n_conditions + c; marks ``fallback`` for the ODE and returns how many."""
     nc = cond.shape[1]
     rows = np.empty(2 * NX)
     tx = np.empty(NX)
     vals = np.empty(2)
     n_fallback = 0
-    for e in range(start, stop):
-        code = _rebound_one(theta, e // nc, cols, cond, e % nc, cond_rows, ball, bounds, main,
-                            x_max, gamma_max, kv, rows, tx, vals, out, e)
-        fallback[e] = code == -3
-        if code < 0 and code != -3:
-            status[e] = K.ST_OK
-            ok[e] = True
-            rolling[e] = code == -1
-            continue
-        n_fallback += code == -3
-        status[e] = K.ST_OK if code == -3 else code
-        ok[e] = False
-        rolling[e] = False
-        for q in range(out.shape[0]):
-            out[q, e] = math.nan
+    for r in range(r0, r1):
+        row_ok = _row_valid(theta, r, cols, bounds)
+        for c in range(nc):
+            e = r * nc + c
+            code = K.ST_INVALID
+            if row_ok:
+                code = _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max,
+                                    gamma_max, kv, rows, tx, vals, out, e)
+            if code < -2:
+                n_fallback += 1
+            if code < 0:
+                status[e] = K.ST_OK
+                ok[e] = code > -3
+                rolling[e] = code == -1
+                fallback[e] = code == -3
+                if code > -3:
+                    continue
+            else:
+                status[e] = code
+                ok[e] = False
+                rolling[e] = False
+                fallback[e] = False
+            for q in range(out.shape[0]):
+                out[q, e] = math.nan
     return n_fallback
 
 
 @njit(cache=True, parallel=True)
 def rebound_parallel(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, out,
                      status, rolling, ok, fallback):
-    """:func:`rebound_range` over all elements in parallel chunks; returns the fallback count."""
-    n = status.shape[0]
-    n_chunks = (n + CHUNK - 1) // CHUNK
+    """:func:`rebound_range` over all parameter rows in parallel chunks of rows; returns the
+    fallback count."""
+    n = theta.shape[0]
+    step = max(1, CHUNK // cond.shape[1])
+    n_chunks = (n + step - 1) // step
     counts = np.zeros(n_chunks, dtype=np.int64)
-    for c in prange(n_chunks):
-        counts[c] = rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max,
-                                  gamma_max, kv, c * CHUNK, min(n, (c + 1) * CHUNK), out, status,
+    for k in prange(n_chunks):
+        counts[k] = rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max,
+                                  gamma_max, kv, k * step, min(n, (k + 1) * step), out, status,
                                   rolling, ok, fallback)
     return counts.sum()
 

@@ -29,7 +29,7 @@ RAD = 180.0 / math.pi
 def speed_angle(u, vn):
     """Rebound speed and angle from the normal in degrees (positive: moving forward), from the
     tangential and outward normal velocities: the only place this conversion is made."""
-    return math.hypot(u, vn), math.atan2(u, vn) * RAD
+    return math.sqrt(u * u + vn * vn), math.atan2(u, vn) * RAD  # no overflow in the domain
 
 
 @njit(cache=True)
