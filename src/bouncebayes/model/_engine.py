@@ -113,7 +113,9 @@ class BounceModel:
         theta = np.ascontiguousarray(theta, dtype=np.float64)
         if theta.ndim == 1:
             theta = theta[None, :]
-        if theta.ndim != 2 or theta.shape[1] != len(self.varying):
+        if theta.ndim != 2 or theta.shape[1] != len(self.varying) or not theta.flags.writeable:
+            if theta.ndim == 2 and theta.shape[1] == len(self.varying):
+                return theta.copy()  # a read-only array would compile another specialisation
             raise ValueError(f"`theta` must have shape (n, {len(self.varying)}) for the "
                              f"parameters {self.varying}; got {theta.shape}")
         return theta
@@ -123,25 +125,30 @@ class BounceModel:
     def __call__(self, theta) -> Rebounds:
         """Rebounds of each parameter row of ``theta`` under each condition."""
         theta = self._theta(theta)
-        cond, cond_rows = self._prepared_conditions()
-        m = theta.shape[0] * self.n_conditions
-        out, status = np.empty((N_REBOUND, m)), np.empty(m, dtype=np.int8)
-        rolling, ok, fallback = (np.empty(m, dtype=bool), np.empty(m, dtype=bool),
-                                 np.empty(m, dtype=bool))
+        cond, cond_rows = self._conditions or self._prepared_conditions()
+        n = theta.shape[0]
+        dims = (n, self.n_conditions)
+        out, status = np.empty((N_REBOUND,) + dims), np.empty(dims, dtype=np.int8)
+        rolling, ok = np.empty(dims, dtype=bool), np.empty(dims, dtype=bool)
+        fallback = np.empty(dims, dtype=bool)
         main, _, x_max, gamma_max, kv = self._tables
-        args = (theta, self._cols, cond, cond_rows, self.inputs.ball, self.bounds, main, x_max,
-                gamma_max, kv)
-        if m <= _fast.SERIAL_MAX:
-            n_fallback = _fast.rebound_range(*args, 0, theta.shape[0], out, status, rolling, ok,
-                                             fallback)
+        if n * self.n_conditions <= _fast.SERIAL_MAX:
+            n_fallback = _fast.rebound_range(theta, self._cols, cond, cond_rows, self.inputs.ball,
+                                             self.bounds, main, x_max, gamma_max, kv, 0, n, out,
+                                             status, rolling, ok, fallback)
         else:
-            n_fallback = _fast.rebound_parallel(*args, out, status, rolling, ok, fallback)
+            n_fallback = _fast.rebound_parallel(theta, self._cols, cond, cond_rows,
+                                                self.inputs.ball, self.bounds, main, x_max,
+                                                gamma_max, kv, out, status, rolling, ok,
+                                                fallback)
         if n_fallback:
-            self._rebound_fallback(theta, np.flatnonzero(fallback), out, status, rolling, ok)
-        shape = (theta.shape[0],) + self.shape
-        return Rebounds(out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape),
-                        out[3].reshape(shape), rolling.reshape(shape), ok.reshape(shape),
-                        status.reshape(shape))
+            self._rebound_fallback(theta, np.flatnonzero(fallback), out.reshape(N_REBOUND, -1),
+                                   status.reshape(-1), rolling.reshape(-1), ok.reshape(-1))
+        if len(self.shape) != 1:
+            shape = (n,) + self.shape
+            out, status = out.reshape((N_REBOUND,) + shape), status.reshape(shape)
+            rolling, ok = rolling.reshape(shape), ok.reshape(shape)
+        return Rebounds(out[0], out[1], out[2], out[3], rolling, ok, status)
 
     def _prepared_conditions(self) -> tuple[np.ndarray, np.ndarray]:
         if self._conditions is None:

@@ -261,16 +261,22 @@ def x_values(rows, n, q0, q1, u, tx, vals):
     then dot products with four partial sums)."""
     cheb_basis(u, tx, n)
     for q in range(q0, q1):
-        base = q * n
-        a0 = a1 = a2 = a3 = 0.0
-        for i in range(0, n - 3, 4):
-            a0 += rows[base + i] * tx[i]
-            a1 += rows[base + i + 1] * tx[i + 1]
-            a2 += rows[base + i + 2] * tx[i + 2]
-            a3 += rows[base + i + 3] * tx[i + 3]
-        for i in range(n - n % 4, n):
-            a0 += rows[base + i] * tx[i]
-        vals[q] = (a0 + a1) + (a2 + a3)
+        vals[q] = _dot(rows, q * n, tx, n)
+
+
+@njit(cache=True, inline="always")
+def _dot(rows, base, tx, n):
+    """sum_i rows[base + i] tx[i], i < n, in four partial sums (one summation order for every
+    caller, so that every path rounds alike)."""
+    a0 = a1 = a2 = a3 = 0.0
+    for i in range(0, n - 3, 4):
+        a0 += rows[base + i] * tx[i]
+        a1 += rows[base + i + 1] * tx[i + 1]
+        a2 += rows[base + i + 2] * tx[i + 2]
+        a3 += rows[base + i + 3] * tx[i + 3]
+    for i in range(n - n % 4, n):
+        a0 += rows[base + i] * tx[i]
+    return (a0 + a1) + (a2 + a3)
 
 
 @njit(cache=True, inline="always")
@@ -568,8 +574,8 @@ def _row_valid(theta, r, cols, bounds):
 
 @njit(cache=True, inline="always")
 def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_max, kv, rows, tx,
-                 vals, out, e):
-    """Rebound of parameter row ``r`` (valid) under condition ``c`` into flat element ``e``;
+                 vals, out):
+    """Rebound of parameter row ``r`` (valid) under condition ``c`` into ``out[:, r, c]``;
     returns -1 (rolling) / -2 (sliding) when solved, -3 for the ODE, or a status code."""
     state = cond[C_STATE, c]
     if state == CS_INVALID:
@@ -599,46 +605,95 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_ma
         _pick(theta, r, cols[3], cond, C_SPIN, c), tc, impulse)
     if not exact:
         return -3
-    out[RB_SPEED, e], out[RB_ANGLE, e] = speed_angle(u, vals[T_E] * vn)
-    out[RB_SPIN, e] = w
-    out[RB_TC, e] = tc
+    out[RB_SPEED, r, c], out[RB_ANGLE, r, c] = speed_angle(u, vals[T_E] * vn)
+    out[RB_SPIN, r, c] = w
+    out[RB_TC, r, c] = tc
     return -1 if phase == 0.0 else -2
+
+
+@njit(cache=True, inline="always")
+def _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, codes, out):
+    """:func:`_rebound_one` for every condition of row ``r`` when the modulus is fixed, in
+    three passes over the conditions (damping variable, table, friction and output): short
+    loop bodies whose iterations the processor overlaps, where one long body per bounce is a
+    chain of dependent steps. The arithmetic is exactly that of :func:`_rebound_one`."""
+    nc = cond.shape[1]
+    eta_r = theta[r, cols[1]] if cols[1] >= 0 else 0.0
+    for c in range(nc):
+        eta = eta_r if cols[1] >= 0 else cond[C_ETA, c]
+        stage[0, c] = np.cbrt(eta * cond[C_CZ, c]) if kv else eta * cond[C_VN, c]
+    for c in range(nc):
+        state = cond[C_STATE, c]
+        x = stage[0, c]
+        if state == CS_INVALID:
+            codes[c] = K.ST_INVALID
+        elif state == CS_OUTSIDE or not x <= x_max:
+            codes[c] = -3
+        else:
+            codes[c] = 0
+            row = cond_rows[c]
+            cheb_basis(2.0 * x / x_max - 1.0, tx, NX)
+            stage[1, c] = _dot(row, T_E * NX, tx, NX)
+            stage[2, c] = _dot(row, T_TC * NX, tx, NX)
+    for c in range(nc):
+        if codes[c] != 0:
+            continue
+        e, tc_scaled = stage[1, c], stage[2, c]
+        vn = cond[C_VN, c]
+        tc = tc_scaled * cond[C_TSTAR, c]
+        impulse = vn * (1.0 + e + cond[C_GAMMA, c] * tc_scaled)
+        exact, u, w, phase, slides = tangential_one(
+            ball[B_R], ball[B_M], ball[B_I], _pick(theta, r, cols[0], cond, C_MU, c),
+            cond[C_GX, c], cond[C_U0, c], _pick(theta, r, cols[3], cond, C_SPIN, c), tc,
+            impulse)
+        if not exact:
+            codes[c] = -3
+            continue
+        out[RB_SPEED, r, c], out[RB_ANGLE, r, c] = speed_angle(u, e * vn)
+        out[RB_SPIN, r, c] = w
+        out[RB_TC, r, c] = tc
+        codes[c] = -1 if phase == 0.0 else -2
 
 
 @njit(cache=True)
 def rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, r0,
                   r1, out, status, rolling, ok, fallback):
-    """Rebounds of parameter rows [r0, r1) under every condition, into the flat elements
-    r * n_conditions + c; marks ``fallback`` for the ODE and returns how many."""
+    """Rebounds of parameter rows [r0, r1) under every condition, into ``out[:, r, c]`` and
+    the (row, condition) arrays; marks ``fallback`` for the ODE and returns how many."""
     nc = cond.shape[1]
     rows = np.empty(2 * NX)
     tx = np.empty(NX)
     vals = np.empty(2)
+    codes = np.empty(nc, dtype=np.int64)
+    stage = np.empty((3, nc))
     n_fallback = 0
     for r in range(r0, r1):
         row_ok = _row_valid(theta, r, cols, bounds)
+        if row_ok and cols[2] < 0:
+            _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, codes, out)
         for c in range(nc):
-            e = r * nc + c
             code = K.ST_INVALID
-            if row_ok:
+            if row_ok and cols[2] < 0:
+                code = codes[c]
+            elif row_ok:
                 code = _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max,
-                                    gamma_max, kv, rows, tx, vals, out, e)
+                                    gamma_max, kv, rows, tx, vals, out)
             if code < -2:
                 n_fallback += 1
             if code < 0:
-                status[e] = K.ST_OK
-                ok[e] = code > -3
-                rolling[e] = code == -1
-                fallback[e] = code == -3
+                status[r, c] = K.ST_OK
+                ok[r, c] = code > -3
+                rolling[r, c] = code == -1
+                fallback[r, c] = code == -3
                 if code > -3:
                     continue
             else:
-                status[e] = code
-                ok[e] = False
-                rolling[e] = False
-                fallback[e] = False
+                status[r, c] = code
+                ok[r, c] = False
+                rolling[r, c] = False
+                fallback[r, c] = False
             for q in range(out.shape[0]):
-                out[q, e] = math.nan
+                out[q, r, c] = math.nan
     return n_fallback
 
 
