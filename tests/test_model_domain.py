@@ -127,7 +127,7 @@ HANG = """
 import math, time
 import numpy as np
 from bouncebayes.model import _kernel as K
-# the issue's hang: a mass of 1e300 overflows m^2; the step and time limits become infinite
+# a reported hang: a mass of 1e300 overflows m^2; the step and time limits become infinite
 p = np.zeros(K.N_PARAMS); p[K.P_R] = 0.0128; p[K.P_M] = 1e300; p[K.P_K] = 1e5
 p[K.P_I] = 0.4 * 1e300 * 0.0128**2; p[K.P_MU] = 0.2; p[K.P_ETA] = 1.0; p[K.P_GY] = 9.8
 p[K.P_DSCALE] = 1.0
@@ -197,6 +197,22 @@ def test_priors_leaving_the_domain_are_refused_naming_the_key(prior, match):
 
     with pytest.raises(InputFileError, match=match):
         parse_experiment(__import__("tomllib").loads(MINIMAL + prior))
+
+
+@pytest.mark.parametrize(("old", "new", "match"), [
+    ("speed_m_s = 3.0", "speed_m_s = 1e5", r"`incidence.speed_m_s`: must be a finite number in "
+                                           r"\[0.001, 500\] m/s"),
+    ("mu = 0.16", "mu = 1e300", r"`contact.mu`: must be a finite number in \[0, 10\]"),
+    ("mass_kg = 0.0095", "mass_kg = 1e300", r"`ball`: `mass` of 1e\+300 kg"),
+])
+def test_experiment_values_outside_the_domain_name_the_key(old, new, match):
+    import tomllib
+
+    from bouncebayes._errors import InputFileError
+
+    assert old in MINIMAL
+    with pytest.raises(InputFileError, match=match):
+        parse_experiment(tomllib.loads(MINIMAL.replace(old, new)))
 
 
 def test_priors_with_negligible_tails_outside_the_domain_are_accepted():

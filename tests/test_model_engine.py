@@ -196,3 +196,27 @@ def test_history_is_the_summary_of_the_same_solve(monkeypatch):
     # the sampled dense output is continuous where steps meet: the force changes smoothly
     f = h.normal_force[contact]
     assert np.all(np.abs(np.diff(f, 2)) < 0.05 * f.max())
+
+
+def test_inference_forward_adapter_keeps_its_interface():
+    """inference's Forward(experiment, names, speed=, angle=, spin=) -> (n, n_conditions) arrays
+    of speed, angle, rolling, ok, status, spin and contact time: the model's rebounds."""
+    from bouncebayes.data import load_experiment
+    from bouncebayes.inference._forward import Forward
+
+    exp = load_experiment(Path(__file__).parents[1] / "examples" / "paper.toml")
+    cond = conditions(7)
+    fwd = Forward(exp, ("mu", "eta"), **cond)
+    theta = np.array([[0.1, 1.0], [0.3, 2.0], [0.2, 1.5]])
+    r = fwd(theta)
+    for name in ("speed", "angle", "rolling", "ok", "status", "spin", "contact_time"):
+        assert getattr(r, name).shape == (3, 7), name
+    b = bb.simulate(exp.ball, mu=theta[:, :1], eta=theta[:, 1:], **cond,
+                    inclination=exp.inclination, gravity=exp.gravity)
+    np.testing.assert_array_equal(r.spin, b.rebound_spin)
+    np.testing.assert_array_equal(r.contact_time, b.contact_time)
+    # a scalar incidence is one condition
+    assert Forward(exp, ("mu", "eta"), speed=3.0, angle=60.0)(theta).speed.shape == (3, 1)
+    # conditions outside the domain are refused when the adapter is built
+    with pytest.raises(ValueError, match=r"`speed` must be"):
+        Forward(exp, ("mu", "eta"), speed=[3.0, 1e4], angle=60.0)

@@ -107,6 +107,7 @@ def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -
     incidence = Incidence(inc["speed_m_s"], inc["angle_deg"], inc["spin_rad_s"],
                           inc["speed_sd_m_s"], inc["angle_sd_deg"], inc["spin_sd_rad_s"])
     priors = _priors(p, doc.get("parameters", {}), t["model"]["normal"])
+    _check_values_in_domain(p, t)
     return Experiment(
         name=t["experiment"]["name"], description=t["experiment"]["description"], ball=ball,
         inclination=t["surface"]["inclination_deg"], incidence=incidence,
@@ -212,12 +213,31 @@ def _prior(p: _Parser, name: str, spec: Any, normal_law: str) -> Prior:
     return prior
 
 
+# Values of the file that are inputs of the model: key path -> the model's input name.
+_MODEL_INPUTS = {("contact", "mu"): "mu", ("contact", "eta"): "eta",
+                 ("incidence", "speed_m_s"): "speed", ("incidence", "spin_rad_s"): "spin",
+                 ("model", "gravity_m_s2"): "gravity"}
+
+
+def _check_values_in_domain(p: _Parser, t: dict) -> None:
+    """Fixed values that feed the model must lie in its physical domain (an incident speed of
+    1e5 m/s would otherwise fail later, far from the key that caused it)."""
+    for (section, key), name in _MODEL_INPUTS.items():
+        value = t[section][key]
+        if value is None:
+            continue
+        domain = parameter_domain(name, t["model"]["normal"])
+        if not domain.contains(value):
+            raise p.error(f"{section}.{key}", f"must be {domain.describe()} ({domain.reason}); "
+                                              f"got {value!r}")
+
+
 # Prior mass allowed beyond the model's domain in an unbounded tail (a normal or lognormal
 # prior); draws there are impossible parameter values (status INVALID_INPUT, likelihood zero).
 TAIL_MASS = 1e-9
 
 
-def _check_prior_domain(p: _Parser, path: str, name: str, kind: str, prior: Prior,
+def _check_prior_domain(p: _Parser, path: str, name: str, kind: str, prior: Any,
                         domain: Domain) -> None:
     """A uniform prior must lie inside the parameter's physical domain; the tails of the other
     priors may leave it only with negligible mass."""

@@ -40,7 +40,7 @@ class Forward:
                                  youngs_modulus=nominal["youngs_modulus"], speed=speed,
                                  angle=angle, spin=spin, inclination=e.inclination,
                                  gravity=e.gravity, normal_law=e.normal_law, solver=self.solver,
-                                 varying=self.names)
+                                 varying=self.names).prepare()
         self.n_conditions = self.model.n_conditions
 
     def __call__(self, theta: np.ndarray) -> Rebounds:

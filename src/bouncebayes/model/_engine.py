@@ -150,6 +150,12 @@ class BounceModel:
             rolling, ok = rolling.reshape(shape), ok.reshape(shape)
         return Rebounds(out[0], out[1], out[2], out[3], rolling, ok, status)
 
+    def prepare(self) -> BounceModel:
+        """Check the conditions (raising in ``errors="raise"`` mode) and prepare their normal
+        impacts for calls now rather than at the first call; returns the model."""
+        self._prepared_conditions()
+        return self
+
     def _prepared_conditions(self) -> tuple[np.ndarray, np.ndarray]:
         if self._conditions is None:
             if self.errors == "raise":

@@ -64,9 +64,12 @@ COMPRESSION_PIECES = 4
 COMPRESSION_NODES = (10, 8, 20)
 # Domain: KV zeta <= 0.6 (beyond ~0.7 the initial force eta V becomes the peak: a kink),
 # HC chi <= 2 (restitution ~0.3; the factor 1 - 1.5 chi |D'| stays positive, so the ball
-# separates at zero overlap without a kink), gravity number <= 0.05 (beyond, strong damping
-# and slow impacts may never separate). A law without an entry here goes to the ODE solver.
-DOMAIN = {"kelvin-voigt": (0.6, 0.05), "hunt-crossley": (2.0, 0.05)}
+# separates at zero overlap without a kink); gravity number <= 0.09 for KV (slow, grazing
+# impacts of the prior box reach 0.1; eight gravity nodes still give the same 5e-9 agreement on
+# the rebound as over [0, 0.05], tests/test_model_fast.py) and <= 0.05 for HC (its restitution
+# converges more slowly in gravity); beyond, strong damping and slow impacts may never
+# separate. A law without an entry here goes to the ODE solver.
+DOMAIN = {"kelvin-voigt": (0.6, 0.09), "hunt-crossley": (2.0, 0.05)}
 TABLE_SOLVER = SolverConfig(rtol=1e-13, atol=1e-13, max_steps=200_000, time_limit=None)
 LAW_POWER = {"kelvin-voigt": 3.0, "hunt-crossley": 1.0}  # damping = x ** power
 

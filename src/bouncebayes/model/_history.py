@@ -97,6 +97,13 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
     hist = sample(res, segs, params, t_contact)
     span = tc if flight_time is None else check_scalar("flight_time", flight_time, unit="s",
                                                        low=0.0, low_open=True)
+    return _with_flights(ball, bounce, t_contact, hist, params, span, n_flight)
+
+
+def _with_flights(ball: Ball, bounce: Bounces, t_contact: np.ndarray, hist: np.ndarray,
+                  params: np.ndarray, span: float, n_flight: int) -> BounceHistory:
+    """The contact samples with ``n_flight`` ballistic samples over ``span`` on either side."""
+    tc = t_contact[-1]
     gx, gy, r = params[K.P_GX], params[K.P_GY], ball.radius
     t_before = np.linspace(-span, 0.0, n_flight, endpoint=False)
     t_after = np.linspace(0.0, span, n_flight + 1)[1:]
@@ -115,6 +122,6 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
         spin=spin_series,
         normal_force=np.concatenate([zeros, hist[:, K.H_FN], zeros]),
         friction_force=np.concatenate([zeros, hist[:, K.H_FT], zeros]),
-        in_contact=np.concatenate([zeros, np.ones(n_contact), zeros]).astype(bool),
+        in_contact=np.concatenate([zeros, np.ones(t_contact.size), zeros]).astype(bool),
         rolling=np.concatenate([zeros, hist[:, K.H_PHASE] == 0, zeros]).astype(bool),
         bounce=bounce, mass=ball.mass, moment_of_inertia=ball.moment_of_inertia, radius=r)

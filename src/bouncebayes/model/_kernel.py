@@ -126,7 +126,7 @@ def friction_force(fn, phase, p):
 
 @njit(cache=True)
 def rhs(y, p, phase, out):
-    """Equations of motion in contact (MODEL.md §2) for the given tangential phase."""
+    """Equations of motion in contact (docs/model.md §2) for the given tangential phase."""
     fn = normal_force(y[S_D], y[S_V], p)
     ft = friction_force(fn, phase, p)
     out[S_X] = y[S_U]
