@@ -7,7 +7,7 @@ forces and overlap tracked) at the SAME accuracy:
    (``tests/reference_scipy.py``, rtol 1e-13). The error of a bounce is the largest of the
    relative errors of rebound speed (scale: incident speed V), rebound angle (scale: max(|angle|,
    1 degree)) and rebound spin (scale: max(|spin|, V / r)), as in tests/test_model_reference.py.
-   One accuracy target, 1e-7 (the agreement the issues ask of the simulator): for the package's
+   One accuracy target, 1e-7 (the agreement required of the simulator): for the package's
    ODE path and for SciPy's RK45 a ladder of tolerances (rtol = atol, atol as a fraction of
    each component's natural scale, the package's convention) is tried, and each runs at the
    LOOSEST rung whose error meets the target;
@@ -16,14 +16,24 @@ forces and overlap tracked) at the SAME accuracy:
    ``reference_bounce(method="RK45")`` at the chosen tolerance (and, for information, at the
    package's own rtol). ``ratio`` uses the default thread count, ``ratio_1thread`` one thread.
 
-3. the fast exact path (issue 3): ``bb.simulate``'s default ``method="auto"`` (tabulated normal
+3. the fast exact path: ``bb.simulate``'s default ``method="auto"`` (tabulated normal
    impact + closed-form tangential outcome, ODE only where that is not exact) on batched
    bounces on a horizontal plane, where it covers the whole box (``fast_per_s``), and on the
    mixed draws above with slopes, where it hands rolling-on-a-slope bounces to the ODE
    (``auto_per_s_mixed``); its accuracy is measured against the same DOP853 reference.
 
-``python benchmarks/forward.py --quick`` takes well under a minute; the last stdout line is one
-JSON object with the rates, the ratios and the errors.
+4. the batched call of samplers: ``BounceModel(varying=("mu", "eta"))`` called with 4 parameter
+   rows x 55 incidence conditions (the paper's Metropolis–Hastings run with the gaussian
+   likelihood makes 11,500 such calls), ``batch_call_us`` per call, against the same rebounds
+   from ``bb.simulate`` on broadcast arrays (the generic path) in the same run.
+
+Timings on a shared machine are noisy: every rate is the best of several repeats, and next to
+the wall-clock rates the CPU-time rates (``*_per_cpu_s``: bounces per second of CPU time of
+the process, all threads together) are given, which contention for the cores disturbs less.
+
+``python benchmarks/forward.py --quick`` takes a few minutes; the last stdout line is one JSON
+object with the rates, the ratios and the errors, also written to
+``benchmarks/results/forward.json`` (its ``quick`` field says which run).
 """
 
 from __future__ import annotations
@@ -43,6 +53,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 import bouncebayes as bb  # noqa: E402
+from bouncebayes._io import write_json  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from reference_scipy import reference_bounce  # noqa: E402
@@ -93,41 +104,63 @@ def flat(p: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return p | {"inclination": np.zeros_like(p["speed"])}
 
 
-def rate_package(p, repeats: int, method: str = "ode", rtol: float | None = None) -> float:
+def rate_package(p, repeats: int, method: str = "ode", rtol: float | None = None,
+                 cpu: bool = False) -> float:
+    """Bounces per second of ``bb.simulate`` (best of ``repeats``; CPU time if ``cpu``)."""
     n = p["speed"].size
     best = math.inf
+    clock = time.process_time if cpu else time.perf_counter
     solver = bb.SolverConfig() if rtol is None else bb.SolverConfig(rtol=rtol, atol=rtol)
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         res = bb.simulate(BALL, normal_law=LAW, method=method, solver=solver, **p)
-        best = min(best, time.perf_counter() - t0)
+        best = min(best, clock() - t0)
         assert res.n_failed == 0, res.failure_summary()
     return n / best
 
 
-def rate_scipy(p, rtol: float) -> float:
+def batch_calls(n_calls: int, repeats: int) -> dict[str, float]:
+    """Microseconds per sampler call (4 parameter rows x 55 conditions) of BounceModel, and of
+    the same rebounds from bb.simulate on broadcast arrays (the generic path)."""
+    rng = np.random.default_rng(5)
+    cond = {"speed": rng.uniform(2.5, 3.5, 55), "angle": rng.uniform(50.0, 70.0, 55),
+            "spin": np.zeros(55)}
+    model = bb.model.BounceModel(BALL, normal_law=LAW, varying=("mu", "eta"), **cond)
+    thetas = np.column_stack([rng.uniform(0.0, 0.5, 4 * n_calls),
+                              rng.uniform(0.0, 5.0, 4 * n_calls)]).reshape(n_calls, 4, 2)
+    r = model(thetas[0])
+    b = bb.simulate(BALL, normal_law=LAW, mu=thetas[0][:, :1], eta=thetas[0][:, 1:], **cond)
+    assert np.array_equal(r.speed, b.rebound_speed) and np.array_equal(r.angle, b.rebound_angle)
+    out = {}
+    for name, call in (("batch_call_us", lambda t: model(t)),
+                       ("batch_call_simulate_us", lambda t: bb.simulate(
+                           BALL, normal_law=LAW, mu=t[:, :1], eta=t[:, 1:], **cond))):
+        for label, clock in (("", time.perf_counter), ("_cpu", time.process_time)):
+            best = math.inf
+            for _ in range(repeats):
+                t0 = clock()
+                for t in thetas:
+                    call(t)
+                best = min(best, clock() - t0)
+            out[name.replace("_us", f"{label}_us")] = best / n_calls * 1e6
+    out["batch_call_ratio"] = out["batch_call_simulate_us"] / out["batch_call_us"]
+    out["mh_gaussian_model_seconds"] = 11_500 * out["batch_call_us"] * 1e-6
+    return out
+
+
+def rate_scipy(p, rtol: float, cpu: bool = False) -> float:
+    """Bounces per second of a Python loop of SciPy's RK45 (CPU time if ``cpu``)."""
     n = p["speed"].size
-    t0 = time.perf_counter()
+    clock = time.process_time if cpu else time.perf_counter
+    t0 = clock()
     for i in range(n):
         reference_bounce(BALL, normal_law=LAW, method="RK45", rtol=rtol, atol=rtol, **one(p, i))
-    return n / (time.perf_counter() - t0)
+    return n / (clock() - t0)
 
 
-def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="small batches (< 60 s in all)")
-    args = ap.parse_args(argv)
-    n_acc, n_scipy, n_ode, n_fast, repeats = (12, 400, 50_000, 1_000_000, 3) if args.quick \
-        else (32, 2_000, 200_000, 4_000_000, 5)
-    t_start = time.perf_counter()
-
-    # numba warm-up (compilation or cache load) before anything is timed
-    t0 = time.perf_counter()
-    bb.simulate(BALL, normal_law=LAW, method="ode", **draw(4, seed=0))
-    bb.simulate(BALL, normal_law=LAW, **draw(4, seed=0))
-    print(f"numba warm-up: {time.perf_counter() - t0:.2f} s")
-
-    # 1. accuracy against a tight DOP853 reference
+def accuracy(n_acc: int) -> dict:
+    """Errors against the tight DOP853 reference: the ladder of both ODE solvers, the loosest
+    tolerance of each that meets TARGET, and the fast path's error."""
     acc = draw(n_acc, seed=1)
     refs = [reference_bounce(BALL, normal_law=LAW, **REFERENCE, **one(acc, i))
             for i in range(n_acc)]
@@ -139,7 +172,6 @@ def main(argv=None) -> dict:
         print(f"package ODE rtol=atol={r:g}: error " + ", ".join(
             f"{k} {v:.2e}" for k, v in ode_ladder[r].items()))
     ode_rtol = max([r for r in RK45_LADDER if ode_ladder[r]["max"] <= TARGET] or [1e-12])
-    ode_err = ode_ladder[ode_rtol]
     acc_flat = flat(acc)
     refs_flat = [reference_bounce(BALL, normal_law=LAW, **REFERENCE, **one(acc_flat, i))
                  for i in range(n_acc)]
@@ -148,63 +180,114 @@ def main(argv=None) -> dict:
                       refs_flat)
     print(f"fast path (closed form for {res.closed_form.sum()} of {n_acc}) error: "
           + ", ".join(f"{k} {v:.2e}" for k, v in fast_err.items()))
-    print(f"package (default SolverConfig: rtol={bb.SolverConfig().rtol:g}, "
-          f"atol={bb.SolverConfig().atol:g}) error on {n_acc} bounces: "
-          + ", ".join(f"{k} {v:.2e}" for k, v in ode_err.items()))
     ladder = {}
     for rtol in RK45_LADDER:
         ladder[rtol] = scipy_errors(acc, refs, rtol)
         print(f"RK45 rtol=atol={rtol:g}: error " + ", ".join(f"{k} {v:.2e}"
                                                              for k, v in ladder[rtol].items()))
     rtol = max([r for r in RK45_LADDER if ladder[r]["max"] <= TARGET] or [1e-12])
-    scipy_err = ladder[rtol]
     print(f"accuracy target {TARGET:g}: package ODE at rtol {ode_rtol:g} (error "
-          f"{ode_err['max']:.2e}), RK45 at rtol {rtol:g} (error {scipy_err['max']:.2e})")
+          f"{ode_ladder[ode_rtol]['max']:.2e}), RK45 at rtol {rtol:g} (error "
+          f"{ladder[rtol]['max']:.2e})")
+    return {"ode_ladder": ode_ladder, "ode_rtol": ode_rtol, "fast_err": fast_err,
+            "ladder": ladder, "rtol": rtol, "n": n_acc}
 
-    # 2. speed
+
+def speeds(acc: dict, sizes: tuple[int, ...], repeats: int, quick: bool) -> dict:
+    """Rates of the ODE path (default and one thread), the fast path (wall and CPU time), the
+    sampler call, and the SciPy baseline at the tolerances ``accuracy`` chose."""
+    n_scipy, n_ode, n_fast = sizes
+    ode_rtol = acc["ode_rtol"]
     threads = numba.get_num_threads()
-    ode_rate = rate_package(draw(n_ode, seed=2), repeats, rtol=ode_rtol)
+    out = {"threads": threads, "ode": rate_package(draw(n_ode, seed=2), repeats, rtol=ode_rtol)}
     numba.set_num_threads(1)
-    ode_rate_1 = rate_package(draw(n_ode, seed=2), repeats, rtol=ode_rtol)
+    out["ode_1"] = rate_package(draw(n_ode, seed=2), repeats, rtol=ode_rtol)
     numba.set_num_threads(threads)
     fast_draws = flat(draw(n_fast, seed=4))
-    fast_rate = rate_package(fast_draws, repeats, method="auto")
-    share = float(bb.simulate(BALL, normal_law=LAW, **fast_draws).closed_form.mean())
-    auto_rate_mixed = rate_package(draw(n_ode, seed=2), repeats, method="auto")
-    scipy_rate = rate_scipy(draw(n_scipy, seed=3), rtol)
+    out["fast"] = rate_package(fast_draws, repeats, method="auto")
+    out["fast_cpu"] = rate_package(fast_draws, repeats, method="auto", cpu=True)
+    out["ode_cpu"] = rate_package(draw(n_ode, seed=2), repeats, rtol=ode_rtol, cpu=True)
+    out["calls"] = batch_calls(500 if quick else 2000, repeats + 2)
+    out["share"] = float(bb.simulate(BALL, normal_law=LAW, **fast_draws).closed_form.mean())
+    out["mixed"] = rate_package(draw(n_ode, seed=2), repeats, method="auto")
+    out["scipy"] = rate_scipy(draw(n_scipy, seed=3), acc["rtol"])
+    out["scipy_cpu"] = rate_scipy(draw(n_scipy // 2, seed=3), acc["rtol"], cpu=True)
     # for reference: RK45 at the package's own rtol (the same Dormand-Prince 5(4) pair)
-    same_rtol = ode_rtol
-    scipy_rate_same = rate_scipy(draw(n_scipy, seed=3), same_rtol)
-    print(f"bb.simulate(method='ode', rtol={ode_rtol:g}): {ode_rate:,.0f} bounces/s "
-          f"({threads} numba threads), "
-          f"{ode_rate_1:,.0f} bounces/s (1 thread), batch of {n_ode}")
-    print(f"solve_ivp RK45 loop: {scipy_rate:,.1f} bounces/s ({n_scipy} bounces, rtol {rtol:g}); "
-          f"{scipy_rate_same:,.1f} bounces/s at the package's rtol {same_rtol:g} "
-          f"(error {ladder.get(same_rtol, {}).get('max', math.nan):.2e})")
-    print(f"fast path: {fast_rate:,.0f} bounces/s on a horizontal plane ({100 * share:.0f} % in "
-          f"closed form, batch of {n_fast}); {auto_rate_mixed:,.0f} bounces/s on the mixed "
-          f"draws with slopes; ratio to the ODE path {fast_rate / ode_rate:,.1f}, to SciPy "
-          f"{fast_rate / scipy_rate:,.0f}")
-    print(f"ratio: {ode_rate / scipy_rate:,.0f} ({threads} threads), "
-          f"{ode_rate_1 / scipy_rate:,.0f} (1 thread); total {time.perf_counter() - t_start:.1f} s")
-    summary = {
-        "ode_per_s": ode_rate, "ode_per_s_1thread": ode_rate_1, "scipy_per_s": scipy_rate,
-        "fast_per_s": fast_rate, "fast_closed_form_share": share,
-        "auto_per_s_mixed": auto_rate_mixed, "fast_err": fast_err["max"],
-        "fast_ratio_to_ode": fast_rate / ode_rate, "fast_ratio_to_scipy": fast_rate / scipy_rate,
-        "ratio": ode_rate / scipy_rate, "ratio_1thread": ode_rate_1 / scipy_rate,
+    out["scipy_same"] = rate_scipy(draw(n_scipy, seed=3), ode_rtol)
+    return out
+
+
+def report(acc: dict, sp: dict, sizes: tuple[int, ...]) -> None:
+    """The human-readable lines of the speed results."""
+    n_scipy, n_ode, n_fast = sizes
+    calls = sp["calls"]
+    print(f"bb.simulate(method='ode', rtol={acc['ode_rtol']:g}): {sp['ode']:,.0f} bounces/s "
+          f"({sp['threads']} numba threads), {sp['ode_1']:,.0f} bounces/s (1 thread), batch of "
+          f"{n_ode}")
+    print(f"solve_ivp RK45 loop: {sp['scipy']:,.1f} bounces/s ({n_scipy} bounces, rtol "
+          f"{acc['rtol']:g}); {sp['scipy_same']:,.1f} bounces/s at the package's rtol")
+    print(f"fast path: {sp['fast']:,.0f} bounces/s on a horizontal plane "
+          f"({100 * sp['share']:.1f} % in closed form, batch of {n_fast}); {sp['mixed']:,.0f} "
+          f"bounces/s on the mixed draws with slopes; ratio to the ODE path "
+          f"{sp['fast'] / sp['ode']:,.1f}, to SciPy {sp['fast'] / sp['scipy']:,.0f}")
+    print(f"CPU time: fast path {sp['fast_cpu']:,.0f} bounces per CPU-second, ODE path "
+          f"{sp['ode_cpu']:,.0f} (ratio {sp['fast_cpu'] / sp['ode_cpu']:,.1f})")
+    print(f"sampler call (4 x 55): {calls['batch_call_us']:.1f} us "
+          f"({calls['batch_call_cpu_us']:.1f} us CPU), bb.simulate for the same "
+          f"{calls['batch_call_simulate_us']:.1f} us: {calls['batch_call_ratio']:.1f}x; the "
+          f"model's share of the paper's MH run {calls['mh_gaussian_model_seconds']:.2f} s")
+    print(f"ratio: {sp['ode'] / sp['scipy']:,.0f} ({sp['threads']} threads), "
+          f"{sp['ode_1'] / sp['scipy']:,.0f} (1 thread), {sp['ode_cpu'] / sp['scipy_cpu']:,.0f} "
+          f"in CPU time")
+
+
+def summarize(acc: dict, sp: dict, sizes: tuple[int, ...], quick: bool) -> dict:
+    """The JSON record of a run."""
+    n_scipy, n_ode, n_fast = sizes
+    ode_err, scipy_err = acc["ode_ladder"][acc["ode_rtol"]], acc["ladder"][acc["rtol"]]
+    return {
+        "ode_per_s": sp["ode"], "ode_per_s_1thread": sp["ode_1"], "scipy_per_s": sp["scipy"],
+        "fast_per_s": sp["fast"], "fast_closed_form_share": sp["share"],
+        "fast_per_cpu_s": sp["fast_cpu"], "ode_per_cpu_s": sp["ode_cpu"],
+        "fast_ratio_to_ode_cpu": sp["fast_cpu"] / sp["ode_cpu"], **sp["calls"],
+        "auto_per_s_mixed": sp["mixed"], "fast_err": acc["fast_err"]["max"],
+        "fast_ratio_to_ode": sp["fast"] / sp["ode"],
+        "fast_ratio_to_scipy": sp["fast"] / sp["scipy"],
+        "ratio": sp["ode"] / sp["scipy"], "ratio_1thread": sp["ode_1"] / sp["scipy"],
+        "scipy_per_cpu_s": sp["scipy_cpu"], "ratio_cpu": sp["ode_cpu"] / sp["scipy_cpu"],
         "ode_err": ode_err["max"], "scipy_err": scipy_err["max"],
         "ode_err_by_quantity": {k: v for k, v in ode_err.items() if k != "max"},
         "scipy_err_by_quantity": {k: v for k, v in scipy_err.items() if k != "max"},
-        "scipy_per_s_at_ode_rtol": scipy_rate_same,
-        "scipy_method": "RK45", "scipy_rtol": rtol, "scipy_atol": rtol,
-        "ode_rtol": ode_rtol, "ode_atol": ode_rtol, "accuracy_target": TARGET,
-        "ode_ladder_err": {f"{r:g}": ode_ladder[r]["max"] for r in RK45_LADDER},
-        "rk45_ladder_err": {f"{r:g}": ladder[r]["max"] for r in RK45_LADDER},
-        "n_accuracy": n_acc, "n_scipy": n_scipy, "n_ode": n_ode, "numba_threads": threads,
-        "normal_law": LAW, "quick": args.quick,
-        "wall_s": time.perf_counter() - t_start,
+        "scipy_per_s_at_ode_rtol": sp["scipy_same"],
+        "scipy_method": "RK45", "scipy_rtol": acc["rtol"], "scipy_atol": acc["rtol"],
+        "ode_rtol": acc["ode_rtol"], "ode_atol": acc["ode_rtol"], "accuracy_target": TARGET,
+        "ode_ladder_err": {f"{r:g}": acc["ode_ladder"][r]["max"] for r in RK45_LADDER},
+        "rk45_ladder_err": {f"{r:g}": acc["ladder"][r]["max"] for r in RK45_LADDER},
+        "n_accuracy": acc["n"], "n_scipy": n_scipy, "n_ode": n_ode,
+        "n_fast": n_fast, "numba_threads": sp["threads"], "normal_law": LAW, "quick": quick,
+        "cpu_count": os.cpu_count(), "load_average_1min": os.getloadavg()[0],
     }
+
+
+def main(argv=None) -> dict:
+    """Run the benchmark; print the results and write them to benchmarks/results/."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small batches (a few minutes)")
+    args = ap.parse_args(argv)
+    n_acc, n_scipy, n_ode, n_fast, repeats = (12, 400, 50_000, 1_000_000, 3) if args.quick \
+        else (32, 2_000, 200_000, 4_000_000, 5)
+    sizes = (n_scipy, n_ode, n_fast)
+    t_start = time.perf_counter()
+    # numba warm-up (compilation or cache load) before anything is timed
+    bb.simulate(BALL, normal_law=LAW, method="ode", **draw(4, seed=0))
+    bb.simulate(BALL, normal_law=LAW, **draw(4, seed=0))
+    print(f"numba warm-up: {time.perf_counter() - t_start:.2f} s")
+    acc = accuracy(n_acc)
+    sp = speeds(acc, sizes, repeats, args.quick)
+    report(acc, sp, sizes)
+    summary = summarize(acc, sp, sizes, args.quick) | {"wall_s": time.perf_counter() - t_start}
+    results = Path(__file__).resolve().parent / "results"
+    write_json(results / "forward.json", summary)  # "quick" in it says which run
     print(json.dumps(summary))
     return summary
 

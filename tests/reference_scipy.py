@@ -1,6 +1,6 @@
 """Independent SciPy reference solution of ONE bounce of the bouncebayes contact model.
 
-What it implements (MODEL.md §1-2 with the project's model specification):
+What it implements (docs/model.md §1-2 with the project's model specification):
 
 - plane-aligned frame, state ``(x, d, u, vn, w)``: position along the plane, overlap
   ``d = r - y``, tangential velocity, outward normal velocity, spin (counter-clockwise positive);
@@ -27,7 +27,7 @@ with a non-terminal event on ``dF_n/dt = 0`` (plus the phase end points, which c
 Kelvin–Voigt jump ``F_n(0) = eta V cos(theta)``), the maximum overlap with a non-terminal event
 on ``vn = 0``.
 
-Independence: this module was written from MODEL.md and the written model specification only,
+Independence: this module was written from docs/model.md and the written model specification only,
 WITHOUT reading the package's compiled kernel (``bouncebayes/model/_kernel.py``), and it does not
 import bouncebayes, so that agreement between the two is evidence, not tautology.
 """
@@ -41,7 +41,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 STANDARD_GRAVITY = 9.80665  # m/s^2 (CGPM 1901), the package's default
-HERTZ_CONTACT_TIME_CONSTANT = 2.8683  # t_c = 2.8683 (m^2 / (r E*^2 V))^(1/5), MODEL.md §3
+HERTZ_CONTACT_TIME_CONSTANT = 2.8683  # t_c = 2.8683 (m^2 / (r E*^2 V))^(1/5), docs/model.md §3
 
 ROLL = 0  # phase codes: +1 / -1 = sliding with sign(s) = +1 / -1, 0 = rolling
 

@@ -101,7 +101,7 @@ def test_flag_mode_marks_invalid_elements_and_solves_the_rest():
     assert res.n_failed == 2
     assert np.isfinite(res.rebound_speed[0]) and np.isnan(res.rebound_speed[1:]).all()
     assert "2 x INVALID_INPUT" in res.failure_summary()
-    # 0.1 (1 + e) V cos45 < (2/7) V sin45 for any e <= 1: sliding throughout (MODEL.md §3)
+    # 0.1 (1 + e) V cos45 < (2/7) V sin45 for any e <= 1: sliding throughout (docs/model.md §3)
     assert res.regime.tolist() == ["slip", "failed", "failed"]
 
 
@@ -152,7 +152,7 @@ def test_history_rejects_arrays_and_failed_bounces():
 
 
 def test_regimes_follow_the_rigid_body_criterion():
-    """MODEL.md §3: sliding throughout iff mu (1+e) V < (2/7)|s0|; e from the simulated normal
+    """docs/model.md §3: sliding throughout iff mu (1+e) V < (2/7)|s0|; e from the simulated normal
     rebound. Far from the boundary the simulated regime must agree."""
     speed, angle = 3.0, 45.0
     res = bb.simulate(mu=[0.02, 0.5], eta=1.0, speed=speed, angle=angle, gravity=0.0)

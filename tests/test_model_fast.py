@@ -2,7 +2,7 @@
 
 Expected values: the package's own ODE path at tight tolerance (rtol = atol = 1e-12), which
 test_model_reference.py ties to an independent SciPy DOP853 solution to better than 1e-8; the
-closed forms of MODEL.md §3 for the tangential part.
+closed forms of docs/model.md §3 for the tangential part.
 """
 
 import numpy as np
@@ -12,7 +12,7 @@ import bouncebayes as bb
 from bouncebayes.model import _fast
 
 TIGHT = bb.SolverConfig(rtol=1e-12, atol=1e-12)
-REL = 1e-7  # issue: agreement with the ODE path to 1e-7 relative
+REL = 1e-7  # the required agreement with the ODE path, relative
 QUANTITIES = ("rebound_speed", "rebound_angle", "rebound_spin", "contact_time",
               "peak_normal_force", "peak_friction_force")
 
@@ -77,7 +77,7 @@ def test_both_regimes_and_the_friction_peak_before_the_force_peak_are_covered():
 
 
 def test_rigid_body_closed_form_is_what_the_fast_path_applies():
-    """MODEL.md §3, with e and P from the table: U' = U - mu (1+e) V sign(s0) when sliding
+    """docs/model.md §3, with e and P from the table: U' = U - mu (1+e) V sign(s0) when sliding
     (no gravity), U' = U - (2/7) s0 when the slip stops."""
     speed, angle = 3.0, 45.0
     fast = bb.simulate(mu=[0.02, 0.4], eta=1.0, speed=speed, angle=angle, gravity=0.0)

@@ -2,9 +2,9 @@
 
 The expected values come from ``tests/reference_scipy.py``: ``scipy.integrate.solve_ivp``
 (DOP853, rtol 1e-12, atol 1e-13 of each component's natural scale) with a terminal event at
-every stick/slip switch and at separation, written from MODEL.md and the model specification
+every stick/slip switch and at separation, written from docs/model.md and the model specification
 without reading the package kernel. Its own error is checked here first (tolerance halving,
-a different integrator, the Hertz closed forms of MODEL.md §3); it is below 1e-9 relative, so
+a different integrator, the Hertz closed forms of docs/model.md §3); it is below 1e-9 relative, so
 a 1e-7 disagreement is the package's.
 
 Tolerances have the form ``|a - b| <= rel * max(|b|, floor)`` with ``b`` the reference value and
@@ -154,7 +154,7 @@ def test_reference_is_converged(sets, refs, i):
 
 @pytest.mark.parametrize("normal_speed", [1.0, 3.0, 6.0])
 def test_reference_hertz_closed_form(normal_speed):
-    """Elastic frictionless normal impact without gravity: Hertz closed forms of MODEL.md §3.
+    """Elastic frictionless normal impact without gravity: Hertz closed forms of docs/model.md §3.
 
     delta_max, F_max = k delta_max^1.5 and rebound speed = V are exact (checked to 1e-10); the
     contact time constant 2.8683 is printed with 5 significant digits (exact value 2.86826...),
@@ -230,7 +230,7 @@ def test_head_on_rolling_incidence(law, eta, inclination):
     mu F_n(0), where Kelvin–Voigt has F_n(0) = eta V cos(theta) > 0 (model specification).
 
     Expected values: the reference (1e-7, floors as above); and, independently of any
-    solver, the kinetic energy may not increase with mu, eta > 0 (MODEL.md §3).
+    solver, the kinetic energy may not increase with mu, eta > 0 (docs/model.md §3).
     """
     kw = {"mu": 0.3, "eta": eta, "speed": 2.0, "angle": 0.0, "spin": 0.0,
           "inclination": inclination, "normal_law": law}

@@ -2,8 +2,8 @@
 
 The sources, each cited again by the test that uses it:
 
-- the Hertz closed forms of MODEL.md §3 (K.L. Johnson, *Contact Mechanics*, CUP 1985, §11.4);
-- the rigid-body law of oblique impact with Coulomb friction, MODEL.md §3 (``rigid_body_rebound``);
+- the Hertz closed forms of docs/model.md §3 (K.L. Johnson, *Contact Mechanics*, CUP 1985, §11.4);
+- the rigid-body law of oblique impact with Coulomb friction, docs/model.md §3 (``rigid_body_rebound``);
 - the figures of Y.C. Chung & J.Y. Ooi, Granular Matter 13, 643-656 (2011),
   doi:10.1007/s10035-011-0277-0, as digitized by the Kratos developers, plus one Kratos DEM run
   (``tests/data/external/chung-ooi-kratos/SOURCE.md``);
@@ -156,7 +156,7 @@ def assert_agrees(comparison: Comparison) -> None:
 
 
 def gross_slip(psi) -> np.ndarray:
-    """Closed-form regime (MODEL.md §3): slides throughout iff (2/7)|s0| / (mu (1+e) V) > 1."""
+    """Closed-form regime (docs/model.md §3): slides throughout iff (2/7)|s0| / (mu (1+e) V) > 1."""
     return np.asarray(psi) > 1.0
 
 
@@ -173,7 +173,7 @@ def hertz_exact(ball: bb.Ball, speed):
     """Hertz elastic impact with the exact contact-time constant (Johnson 1985, §11.4).
 
     t_c = 2 (delta_max / V) int_0^1 (1 - x^(5/2))^(-1/2) dx, the integral being (2/5) B(2/5, 1/2);
-    MODEL.md's 2.8683 is the resulting 2 (15/16)^(2/5) (2/5) B(2/5, 1/2) = 2.868266, rounded.
+    docs/model.md's 2.8683 is the resulting 2 (15/16)^(2/5) (2/5) B(2/5, 1/2) = 2.868266, rounded.
     """
     m, r, e_star = ball.mass, ball.radius, ball.effective_modulus
     d_max = (15.0 * m * speed**2 / (16.0 * e_star * math.sqrt(r))) ** 0.4
@@ -184,7 +184,7 @@ def hertz_exact(ball: bb.Ball, speed):
 @pytest.mark.parametrize("normal_law", ["kelvin-voigt", "hunt-crossley"])
 @pytest.mark.parametrize("name", list(HERTZ_BALLS))
 def test_elastic_normal_impact_matches_hertz_closed_forms(name, normal_law):
-    """MODEL.md §3 / Johnson §11.4: max overlap, contact time and peak force of an elastic impact.
+    """docs/model.md §3 / Johnson §11.4: max overlap, contact time and peak force of an elastic impact.
 
     Measured agreement with the default solver (rtol = atol = 1e-10): about 3e-10 relative, so the
     tolerance is 1e-8 rather than the 0.5 % first asked for.
@@ -201,14 +201,14 @@ def test_elastic_normal_impact_matches_hertz_closed_forms(name, normal_law):
 
 
 def test_hertz_closed_form_helper_is_exact():
-    """``hertz_elastic_impact`` uses the exact constant 2.868266 (MODEL.md rounds it to 2.8683):
+    """``hertz_elastic_impact`` uses the exact constant 2.868266 (docs/model.md rounds it to 2.8683):
     it equals the closed forms above, computed independently here, to rounding."""
     ball = HERTZ_BALLS["alumina-2.5mm"]
     helper = hertz_elastic_impact(ball, 3.9)
     d_max, t_c, f_max = hertz_exact(ball, 3.9)
     np.testing.assert_allclose([helper.max_overlap, helper.contact_time, helper.peak_force],
                                [d_max, t_c, f_max], rtol=1e-13)
-    # and MODEL.md's printed constant is its 5-digit rounding
+    # and docs/model.md's printed constant is its 5-digit rounding
     assert round(t_c / helper.contact_time * 2.868266, 4) == 2.8683
 
 
@@ -286,7 +286,7 @@ def mechanical_energy(hist, ball: bb.Ball) -> np.ndarray:
 
 @pytest.mark.parametrize("gravity", [0.0, STANDARD_GRAVITY])
 def test_elastic_frictionless_bounce_conserves_speed(gravity):
-    """MODEL.md §3: eta = 0 and mu = 0 conserve kinetic energy and leave u and spin unchanged;
+    """docs/model.md §3: eta = 0 and mu = 0 conserve kinetic energy and leave u and spin unchanged;
     with gravity the ball leaves at the height where it touched, so its speed is unchanged too."""
     speed = np.array([0.5, 4.0])[:, None, None]
     angle = np.array([0.0, 20.0, 45.0, 70.0, 85.0])[:, None]
@@ -306,7 +306,7 @@ def test_elastic_frictionless_bounce_conserves_speed(gravity):
 @pytest.mark.parametrize(("angle", "spin"), [(10.0, 0.0), (45.0, -200.0), (45.0, 300.0),
                                              (75.0, 0.0)])
 def test_mechanical_energy_never_increases_during_contact(mu, eta, normal_law, angle, spin):
-    """MODEL.md §3: with mu > 0 or eta > 0 the energy never increases (gravity off). The samples
+    """docs/model.md §3: with mu > 0 or eta > 0 the energy never increases (gravity off). The samples
     may rise by interpolation noise only (measured <= 3e-11 of the initial energy)."""
     hist = simulate_history(bb.PAPER_BALL, mu=mu, eta=eta, speed=4.0, angle=angle, spin=spin,
                             gravity=0.0, normal_law=normal_law, solver=EXACT, n_contact=400,
@@ -317,7 +317,7 @@ def test_mechanical_energy_never_increases_during_contact(mu, eta, normal_law, a
 
 
 def test_rebound_kinetic_energy_not_above_incident():
-    """MODEL.md §3: translational + rotational kinetic energy after <= before (gravity off), and
+    """docs/model.md §3: translational + rotational kinetic energy after <= before (gravity off), and
     strictly less whenever there is damping."""
     ball = bb.PAPER_BALL
     mu = np.array([0.0, 0.1, 0.5])[:, None, None, None]
@@ -373,7 +373,7 @@ def assert_matches_rigid_body(ball, eta, *, mu, speed, angle, spin, rolling):
 
 @pytest.mark.parametrize("name", list(OBLIQUE_BALLS))
 def test_oblique_sliding_regime_matches_rigid_body_law(name):
-    """MODEL.md §3 gross slip, mu (1+e) V < (2/7)|s0|: U' = U - mu(1+e)V sign(s0),
+    """docs/model.md §3 gross slip, mu (1+e) V < (2/7)|s0|: U' = U - mu(1+e)V sign(s0),
     w' = w0 - (5/2) mu (1+e) V sign(s0) / r. Slip of both signs (backspin makes s0 < 0)."""
     ball, eta = OBLIQUE_BALLS[name]
     cases = np.array([  # mu, speed, angle, spin
@@ -387,7 +387,7 @@ def test_oblique_sliding_regime_matches_rigid_body_law(name):
 
 @pytest.mark.parametrize("name", list(OBLIQUE_BALLS))
 def test_oblique_rolling_regime_matches_rigid_body_law_whatever_mu(name):
-    """MODEL.md §3 rolling: U' = U - (2/7) s0, w' = w0 - (5/7) s0 / r, independent of mu."""
+    """docs/model.md §3 rolling: U' = U - (2/7) s0, w' = w0 - (5/7) s0 / r, independent of mu."""
     ball, eta = OBLIQUE_BALLS[name]
     angle = np.array([15.0, 40.0, 70.0, 40.0])
     spin = np.array([0.0, 0.0, -300.0, 200.0])

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,7 +21,7 @@ from ._io import write_json, write_with
 from .data import Experiment, Trials
 from .inference import InferenceResult
 from .inference._summary import marginal_modes
-from .model import BounceFailed, Bounces, SimulationWarning, simulate, simulate_history
+from .model import BounceFailed, BounceModel, Bounces, simulate_history
 
 N_DRAWS = 2000  # draws propagated (bounce summaries, predictive)
 N_HISTORIES = 100  # draws whose time histories are kept (figures)
@@ -88,12 +87,11 @@ def _draw_subset(result: InferenceResult, n: int, rng) -> dict:
 
 
 def _simulate(experiment: Experiment, theta: dict, **incidence) -> Bounces:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", SimulationWarning)  # counted, not fatal
-        return simulate(experiment.ball, mu=theta["mu"], eta=theta["eta"],
-                        youngs_modulus=theta["youngs_modulus"],
-                        inclination=experiment.inclination, normal_law=experiment.normal_law,
-                        gravity=experiment.gravity, errors="flag", **incidence)
+    # errors="flag": failures are counted through the statuses, not fatal
+    return BounceModel(experiment.ball, mu=theta["mu"], eta=theta["eta"],
+                       youngs_modulus=theta["youngs_modulus"],
+                       inclination=experiment.inclination, normal_law=experiment.normal_law,
+                       gravity=experiment.gravity, errors="flag", **incidence).bounces()
 
 
 def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int = N_DRAWS,
@@ -244,7 +242,8 @@ def load_propagation(folder: str | Path) -> Propagation:
                       peak_normal_force=a["peak_normal_force"],
                       peak_friction_force=a["peak_friction_force"], max_overlap=nan,
                       separation_overlap=nan, time_of_peak_normal_force=nan,
-                      rolling=a["rolling"], closed_form=np.zeros(n, bool), status=a["status"],
+                      rolling=a["rolling"], hertz_valid=a["status"] == 0,
+                      closed_form=np.zeros(n, bool), status=a["status"],
                       n_steps=np.zeros(n, np.int64))
     histories = {k[len("history_"):]: v for k, v in a.items() if k.startswith("history_")}
     theta = {k: np.array(v) for k, v in json.loads(str(a["theta"])).items()}

@@ -80,7 +80,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, print, and draw the figure if asked."""
-    from ..model import Ball, SimulationWarning, simulate
+    from ..model import HERTZ_OVERLAP_LIMIT, Ball, SimulationWarning, simulate
 
     if args.plot is not None:
         check_out_file("--plot", args.plot, FIGURE_SUFFIXES)
@@ -95,6 +95,11 @@ def run(args: argparse.Namespace) -> int:
     if result.n_failed:
         raise UserError(f"the bounce could not be solved: {result.failure_summary()}")
     row = result.item()
+    if not row["hertz_valid"]:
+        print(f"bouncebayes simulate: warning: the maximum overlap, "
+              f"{row['max_overlap'] * 1e3:.4g} mm, exceeds {HERTZ_OVERLAP_LIMIT:.0%} of the ball's "
+              f"radius ({ball.radius * 1e3:.4g} mm): beyond the small strains of Hertz's contact, "
+              f"so these numbers are the model's, not a real ball's", file=sys.stderr)
     if args.json:
         print(json.dumps({k: row[k] for k in _JSON_KEYS}))
     else:

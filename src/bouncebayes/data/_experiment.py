@@ -14,7 +14,7 @@ from typing import Any
 
 from .._errors import InputFileError
 from .._validate import range_text
-from ..model import Ball, damping_unit
+from ..model import Ball, Domain, damping_unit, parameter_domain
 from ._priors import LogNormal, Normal, Prior, Uniform
 from ._schema import OPTIONAL, PARAMETERS, PRIOR_KEYS, REQUIRED_SECTIONS, SECTIONS, Key
 
@@ -106,7 +106,8 @@ def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -
     inc = t["incidence"]
     incidence = Incidence(inc["speed_m_s"], inc["angle_deg"], inc["spin_rad_s"],
                           inc["speed_sd_m_s"], inc["angle_sd_deg"], inc["spin_sd_rad_s"])
-    priors = _priors(p, doc.get("parameters", {}))
+    priors = _priors(p, doc.get("parameters", {}), t["model"]["normal"])
+    _check_values_in_domain(p, t)
     return Experiment(
         name=t["experiment"]["name"], description=t["experiment"]["description"], ball=ball,
         inclination=t["surface"]["inclination_deg"], incidence=incidence,
@@ -176,20 +177,23 @@ def _ball(p: _Parser, b: dict) -> Ball:
             raise p.error(f"ball.{one}", f"give exactly one of `ball.{one}` and "
                                          f"`ball.{other}`; got {got}")
     diameter = b["diameter_m"] if b["diameter_m"] is not None else 2.0 * b["radius_m"]
-    return Ball.from_diameter(diameter, mass=b["mass_kg"], density=b["density_kg_m3"],
-                              youngs_modulus=b["youngs_modulus_Pa"],
-                              poisson_ratio=b["poisson_ratio"],
-                              inertia_factor=b["inertia_factor"])
+    try:
+        return Ball.from_diameter(diameter, mass=b["mass_kg"], density=b["density_kg_m3"],
+                                  youngs_modulus=b["youngs_modulus_Pa"],
+                                  poisson_ratio=b["poisson_ratio"],
+                                  inertia_factor=b["inertia_factor"])
+    except ValueError as exc:  # outside the model's physical domain of a ball
+        raise p.error("ball", str(exc)) from None
 
 
-def _priors(p: _Parser, table: Any) -> dict[str, Prior]:
+def _priors(p: _Parser, table: Any, normal_law: str) -> dict[str, Prior]:
     if not isinstance(table, dict):
         raise p.error("parameters", f"must hold tables [parameters.NAME]; got {_kind(table)}")
     p.check_keys(table, PARAMETERS, "parameters", what="parameter")
-    return {name: _prior(p, name, spec) for name, spec in table.items()}
+    return {name: _prior(p, name, spec, normal_law) for name, spec in table.items()}
 
 
-def _prior(p: _Parser, name: str, spec: Any) -> Prior:
+def _prior(p: _Parser, name: str, spec: Any, normal_law: str) -> Prior:
     path = f"parameters.{name}"
     if not isinstance(spec, dict):
         raise p.error(path, f"must be a table [{path}] with a prior; got {_kind(spec)}")
@@ -205,13 +209,57 @@ def _prior(p: _Parser, name: str, spec: Any) -> Prior:
     prior = {"uniform": lambda: Uniform(v["low"], v["high"]),
              "normal": lambda: Normal(v["mean"], v["sd"], v["low"], v["high"]),
              "lognormal": lambda: LogNormal(v["median"], v["sd_log"])}[kind]()
-    floor = PARAMETERS[name][1]
-    if prior.support[0] < floor:
-        fix = (f"set `low` >= {floor:g}" if kind == "uniform"
-               else f"truncate it with `low = {floor:g}`")
-        raise p.error(path, f"the prior ({prior.describe()}) puts mass below {floor:g}, "
-                            f"where `{name}` is not physical; {fix}")
+    _check_prior_domain(p, path, name, kind, prior, parameter_domain(name, normal_law))
     return prior
+
+
+# Values of the file that are inputs of the model: key path -> the model's input name.
+_MODEL_INPUTS = {("contact", "mu"): "mu", ("contact", "eta"): "eta",
+                 ("incidence", "speed_m_s"): "speed", ("incidence", "spin_rad_s"): "spin",
+                 ("model", "gravity_m_s2"): "gravity"}
+
+
+def _check_values_in_domain(p: _Parser, t: dict) -> None:
+    """Fixed values that feed the model must lie in its physical domain (an incident speed of
+    1e5 m/s would otherwise fail later, far from the key that caused it)."""
+    for (section, key), name in _MODEL_INPUTS.items():
+        value = t[section][key]
+        if value is None:
+            continue
+        domain = parameter_domain(name, t["model"]["normal"])
+        if not domain.contains(value):
+            raise p.error(f"{section}.{key}", f"must be {domain.describe()} ({domain.reason}); "
+                                              f"got {value!r}")
+
+
+# Prior mass allowed beyond the model's domain in an unbounded tail (a normal or lognormal
+# prior); draws there are impossible parameter values (status INVALID_INPUT, likelihood zero).
+TAIL_MASS = 1e-9
+
+
+def _check_prior_domain(p: _Parser, path: str, name: str, kind: str, prior: Any,
+                        domain: Domain) -> None:
+    """A uniform prior must lie inside the parameter's physical domain; the tails of the other
+    priors may leave it only with negligible mass."""
+    low, high = prior.support
+    for side, end, bound, key in (("below", low, domain.low, "low"),
+                                  ("above", high, domain.high, "high")):
+        outside = end < bound if side == "below" else end > bound
+        if not outside:
+            continue
+        if kind != "uniform":
+            mass = float(prior.dist.cdf(bound) if side == "below" else prior.dist.sf(bound))
+            if mass <= TAIL_MASS:
+                continue
+        op = ">=" if side == "below" else "<="
+        fix = (f"set `{key}` {op} {bound:g}" if kind == "uniform" or
+               (kind == "normal" and not math.isinf(end))
+               else f"truncate it with `{key} = {bound:g}`" if kind == "normal"
+               else "narrow it (or use a truncated normal prior)")
+        unit = f" {domain.unit}" if domain.unit else ""
+        raise p.error(path, f"the prior ({prior.describe()}) puts mass {side} {bound:g}{unit}, "
+                            f"where `{name}` is not physical; {fix} (the model's domain of "
+                            f"`{name}`: {domain.describe()}, {domain.reason})")
 
 
 def _describe(spec: Key) -> str:

@@ -1,4 +1,11 @@
-"""The forward model: a ball bouncing obliquely on a rigid plane (MODEL.md §1-3)."""
+"""The forward model: a ball bouncing obliquely on a rigid plane (docs/model.md).
+
+One way in: :class:`BounceModel` (batched bounces under fixed conditions; samplers call it with
+parameter rows), :func:`simulate` (full results for broadcast arguments, through the same
+model) and :func:`simulate_history` (time series of one bounce). Inputs are checked against
+their physical domains (:data:`PARAMETER_DOMAINS`); statuses (:class:`Status`) say why a
+bounce could not be solved.
+"""
 
 from ._closed_form import HertzImpact as HertzImpact
 from ._closed_form import RigidBodyRebound as RigidBodyRebound
@@ -10,15 +17,25 @@ from ._config import STANDARD_GRAVITY as STANDARD_GRAVITY
 from ._config import Ball as Ball
 from ._config import SolverConfig as SolverConfig
 from ._config import damping_unit as damping_unit
-from ._simulate import Bounces as Bounces
-from ._simulate import SimulationWarning as SimulationWarning
-from ._simulate import Status as Status
-from ._simulate import simulate as simulate
+from ._domain import HERTZ_OVERLAP_LIMIT as HERTZ_OVERLAP_LIMIT
+from ._domain import PARAMETER_DOMAINS as PARAMETER_DOMAINS
+from ._domain import Domain as Domain
+from ._domain import parameter_domain as parameter_domain
+from ._engine import VARYING as VARYING
+from ._engine import BounceModel as BounceModel
 from ._history import BounceFailed as BounceFailed
 from ._history import BounceHistory as BounceHistory
 from ._history import simulate_history as simulate_history
+from ._results import Bounces as Bounces
+from ._results import Rebounds as Rebounds
+from ._results import SimulationWarning as SimulationWarning
+from ._results import Status as Status
+from ._simulate import simulate as simulate
 
-__all__ = ["Ball", "BounceFailed", "BounceHistory", "Bounces", "HertzImpact", "NORMAL_LAWS",
-           "PAPER_BALL", "RigidBodyRebound", "STANDARD_GRAVITY", "SimulationWarning",
-           "SolverConfig", "Status", "damping_unit", "hertz_elastic_impact", "rigid_body_rebound",
-           "simulate", "simulate_history"]
+__all__ = [
+    "HERTZ_OVERLAP_LIMIT", "NORMAL_LAWS", "PAPER_BALL", "PARAMETER_DOMAINS", "STANDARD_GRAVITY",
+    "VARYING", "Ball", "BounceFailed", "BounceHistory", "BounceModel", "Bounces", "Domain",
+    "HertzImpact", "Rebounds", "RigidBodyRebound", "SimulationWarning", "SolverConfig",
+    "Status", "damping_unit", "hertz_elastic_impact", "parameter_domain", "rigid_body_rebound",
+    "simulate", "simulate_history",
+]

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Literal, get_args
 
 from .._validate import check_choice, check_scalar
+from ._domain import PARAMETER_DOMAINS
 
 NormalLaw = Literal["kelvin-voigt", "hunt-crossley"]
 NORMAL_LAWS: tuple[str, ...] = get_args(NormalLaw)
@@ -29,6 +30,10 @@ def damping_unit(law: str) -> str:
 class Ball:
     """A homogeneous (or shell) sphere, SI units throughout.
 
+    Every value must also lie in its physical domain (``PARAMETER_DOMAINS``: radius 10 um to
+    1 m, mean density 1 to 25,000 kg/m^3, modulus 1 kPa to 1.5 TPa; the reasons are in
+    ``bouncebayes.model._domain``'s docstring), so that no quantity of the model overflows.
+
     Arguments:
         radius: radius in m, > 0.
         mass: mass in kg, > 0.
@@ -50,17 +55,27 @@ class Ball:
         check_scalar("youngs_modulus", self.youngs_modulus, unit="Pa", low=0.0, low_open=True)
         check_scalar("poisson_ratio", self.poisson_ratio, low=-1.0, high=0.5, low_open=True)
         check_scalar("inertia_factor", self.inertia_factor, low=0.0, high=1.0, low_open=True)
+        PARAMETER_DOMAINS["radius"].check(self.radius)
+        PARAMETER_DOMAINS["youngs_modulus"].check(self.youngs_modulus)
+        density = PARAMETER_DOMAINS["density"]
+        if not density.contains(self.density):
+            raise ValueError(f"`mass` of {self.mass!r} kg gives a mean density of "
+                             f"{self.density:.3g} kg/m^3 for the radius {self.radius:g} m; a "
+                             f"ball's mean density must be {density.describe()} "
+                             f"({density.reason})")
 
     @classmethod
     def from_diameter(cls, diameter: float, *, mass: float | None = None,
                       density: float | None = None, **kwargs: float) -> Ball:
         """Build a ball from its diameter (m) and either its mass (kg) or density (kg/m^3)."""
         d = check_scalar("diameter", diameter, unit="m", low=0.0, low_open=True)
+        PARAMETER_DOMAINS["diameter"].check(d)
         if (mass is None) == (density is None):
             raise ValueError("give exactly one of `mass` (kg) or `density` (kg/m^3); got "
                              f"mass={mass!r}, density={density!r}")
         if mass is None:
             rho = check_scalar("density", density, unit="kg/m^3", low=0.0, low_open=True)
+            PARAMETER_DOMAINS["density"].check(rho)
             mass = rho * math.pi * d**3 / 6.0
         return cls(radius=d / 2.0, mass=mass, **kwargs)
 
@@ -86,7 +101,7 @@ class Ball:
 
     @property
     def hertz_stiffness(self) -> float:
-        """k in F = k delta^(3/2): (4/3) sqrt(r) E*, N/m^(3/2)."""
+        """Hertz stiffness k in F = k delta^(3/2): (4/3) sqrt(r) E*, N/m^(3/2)."""
         return 4.0 / 3.0 * math.sqrt(self.radius) * self.effective_modulus
 
 
@@ -111,15 +126,21 @@ class SolverConfig:
         rtol: relative tolerance of the Dormand–Prince 5(4) error control, in (0, 0.1].
         atol: absolute tolerance as a fraction of each variable's natural scale (the Hertz
             overlap for positions, the incident speed for velocities, speed / radius for spin).
-        max_steps: accepted steps allowed per bounce before giving up (status ``MAX_STEPS``).
+        max_steps: step attempts (accepted or rejected) allowed per bounce before giving up
+            (status ``MAX_STEPS``); a bounce of the paper's ball takes about 100.
         max_contact_time_factor: the contact may last at most this many elastic Hertz contact
             times before the bounce is declared not separating (status ``NO_SEPARATION``).
+        time_limit: wall-clock seconds one call may spend in the ODE solver, or None for no
+            limit. The solver works through a batch in chunks and checks the clock between
+            them; the bounces of the chunks it did not reach get the status ``TIMEOUT``. (The
+            step cap already bounds every bounce; this bounds a whole batch, whatever its size.)
     """
 
     rtol: float = 1e-10
     atol: float = 1e-10
     max_steps: int = 20_000
     max_contact_time_factor: float = 50.0
+    time_limit: float | None = 300.0
 
     def __post_init__(self) -> None:
         check_scalar("rtol", self.rtol, low=1e-15, high=0.1)
@@ -128,3 +149,5 @@ class SolverConfig:
                 or self.max_steps < 10:
             raise ValueError(f"`max_steps` must be an integer >= 10; got {self.max_steps!r}")
         check_scalar("max_contact_time_factor", self.max_contact_time_factor, low=1.0)
+        if self.time_limit is not None:
+            check_scalar("time_limit", self.time_limit, unit="s", low=0.0, low_open=True)

@@ -10,18 +10,26 @@ has only two numbers: the damping number (``zeta = eta delta* / (m V)`` for Kelv
 ``chi = eta V`` for Hunt–Crossley) and the gravity number ``gamma = g cos(beta) delta* / V^2``.
 Its outcomes (restitution, contact time, peak force, overlaps, the impulse up to the force peak)
 are tabulated once per law by 2-D Chebyshev interpolation of tight ODE solutions (built in
-milliseconds at first use, cached). The rebound then follows in closed form from the normal
-impulse ``P`` (MODEL.md §3): a ball that slides throughout loses ``mu P / m`` of tangential
-velocity; one whose slip reaches zero leaves rolling with ``U' = U - kappa/(1+kappa) s0``.
+a fraction of a second at first use, cached per process). The rebound then follows in closed
+form from the normal impulse ``P`` (docs/model.md): a ball that slides throughout loses
+``mu P / m`` of tangential velocity; one whose slip reaches zero leaves rolling with
+``U' = U - kappa/(1+kappa) s0``.
 
 Why a hand-written table: no library tabulates a parametrised ODE outcome with the variable
 change this one needs. The damping number enters through ``zeta^(1/3)`` for Kelvin–Voigt (the
 overlap at separation scales like ``zeta^(2/3)``, which spoils polynomial interpolation in
 ``zeta`` itself); in that variable 24 x 8 Chebyshev nodes reach ~1e-10 (tests/test_model_fast.py).
 
+How it is evaluated (the cost of a bounce): the gravity axis is contracted first, for all
+quantities at once (``gravity_rows``: eight explicit terms per coefficient, a loop the compiler
+vectorises), then each quantity is a dot product with the Chebyshev basis in the damping
+variable (``x_values``). Samplers evaluate the same incidence conditions over and over, so
+:class:`~bouncebayes.model.BounceModel` contracts the gravity axis once per condition
+(``prepare_conditions``) and a bounce then costs one cube root and two 24-term dot products.
+
 Where the closed form is not exact (on a slope when the slip stops or might stop, when the ball
 starts rolling on a slope) or the table does not reach (strong damping, slow impacts), the
-element falls back to the ODE solver; :func:`simulate` does this per element.
+element is handed to the ODE solver (a ``fallback`` reason per element).
 """
 
 from __future__ import annotations
@@ -34,31 +42,44 @@ import numpy as np
 from numba import njit, prange
 
 from . import _kernel as K
-from ._config import Ball, SolverConfig
+from ._arrays import (B_I, B_KFAC, B_M, B_R, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPIN, all_valid, at,
+                      element, element_with, gravity_parts, unit_inputs, valid)
+from ._config import SolverConfig
+from ._domain import HERTZ_OVERLAP_LIMIT
+from ._ode import sample, solve_rows, solve_with_segments
+from ._outputs import (O_ANGLE, O_DMAX, O_DSEP, O_FN, O_FT, O_SPEED, O_SPIN, O_STEPS,
+                       O_TC, O_TPK, O_U, O_VN, RB_ANGLE, RB_SPEED, RB_SPIN, RB_TC, fill_failed,
+                       speed_angle)
 
 # Table quantities, all in scaled units of the unit normal problem.
 T_E, T_TC, T_FN, T_DMAX, T_DSEP, T_TPK, T_PPK = range(7)
 N_TABLE = 7
 TABLE_NODES = (24, 8)  # damping x gravity
+NX, NG = TABLE_NODES  # the kernels are written for these sizes (eight gravity terms)
 # The compression table: damping split into COMPRESSION_PIECES equal intervals, each with its
 # own Chebyshev nodes in damping x gravity x sigma (sigma = sqrt(t / t_peak) along the
 # compression before the force peak): a bounce evaluates one piece, 4x fewer terms than one
 # global table of the same accuracy.
 COMPRESSION_PIECES = 4
-COMPRESSION_NODES = (10, 6, 20)
+COMPRESSION_NODES = (10, 8, 20)
 # Domain: KV zeta <= 0.6 (beyond ~0.7 the initial force eta V becomes the peak: a kink),
 # HC chi <= 2 (restitution ~0.3; the factor 1 - 1.5 chi |D'| stays positive, so the ball
-# separates at zero overlap without a kink), gravity number <= 0.05 (beyond, strong damping
-# and slow impacts may never separate).
-DOMAIN = {"kelvin-voigt": (0.6, 0.05), "hunt-crossley": (2.0, 0.05)}
-TABLE_SOLVER = SolverConfig(rtol=1e-13, atol=1e-13, max_steps=200_000)
+# separates at zero overlap without a kink); gravity number <= 0.09 for KV (slow, grazing
+# impacts of the prior box reach 0.1; eight gravity nodes still give the same 5e-9 agreement on
+# the rebound as over [0, 0.05], tests/test_model_fast.py) and <= 0.05 for HC (its restitution
+# converges more slowly in gravity); beyond, strong damping and slow impacts may never
+# separate. A law without an entry here goes to the ODE solver.
+DOMAIN = {"kelvin-voigt": (0.6, 0.09), "hunt-crossley": (2.0, 0.05)}
+TABLE_SOLVER = SolverConfig(rtol=1e-13, atol=1e-13, max_steps=200_000, time_limit=None)
 LAW_POWER = {"kelvin-voigt": 3.0, "hunt-crossley": 1.0}  # damping = x ** power
 
 # Fallback reasons (per element), 0 = closed form applied.
-FB_NONE, FB_DOMAIN, FB_SLOPE = 0, 1, 2
+FB_NONE, FB_DOMAIN, FB_SLOPE, FB_ODE = 0, 1, 2, 3
+SERIAL_MAX = 4096  # batches up to this size run on one thread (no parallel start-up cost)
+CHUNK = 256  # elements per parallel task: work arrays are allocated once per chunk
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class NormalTable:
     """Chebyshev coefficients of the scaled normal-impact outcomes of one law."""
 
@@ -68,6 +89,26 @@ class NormalTable:
     x_max: float  # table variable x: zeta^(1/3) (Kelvin–Voigt) or chi (Hunt–Crossley)
     gamma_max: float
     power: float
+
+    @property
+    def kv(self) -> bool:
+        """Whether the damping variable is the cube root of the damping number."""
+        return self.power == 3.0
+
+    @property
+    def gravity_first(self) -> np.ndarray:
+        """The main table as the kernels read it: (NG, N_TABLE * NX), gravity axis first."""
+        return _gravity_first(self.coef)
+
+    @property
+    def compression_gravity_first(self) -> np.ndarray:
+        """The compression table as the kernels read it: (piece, NG, 2 n_sigma * n_damping)."""
+        return np.ascontiguousarray(np.stack([_gravity_first(c) for c in self.compression]))
+
+
+def _gravity_first(coef: np.ndarray) -> np.ndarray:
+    """(q, i, j) -> (j, q * n_i + i)."""
+    return np.ascontiguousarray(coef.transpose(2, 0, 1).reshape(coef.shape[2], -1))
 
 
 def _cheb_nodes(n: int) -> np.ndarray:
@@ -97,24 +138,18 @@ def normal_table(law: str) -> NormalTable:
                        gamma_max, power)
 
 
-# The unit problem: m = 1, k = 1 (E* = 3/4 with r = 1), V = 1, so delta* = t* = 1.
-_UNIT = {"mu": 0.0, "speed": 1.0, "angle": 0.0, "spin": 0.0, "inclination": 0.0,
-         "youngs_modulus": 0.75}
-
-
-def _unit_prepared(law: str, damping: np.ndarray, gamma: np.ndarray):
-    from ._simulate import _prepare
-
-    unit = Ball(radius=1.0, mass=1.0, youngs_modulus=0.75, poisson_ratio=0.0)
-    return _prepare(unit, _UNIT | {"eta": damping, "gravity": gamma}, law, TABLE_SOLVER,
-                    "raise")
+@lru_cache(maxsize=None)
+def kernel_tables(law: str) -> tuple[np.ndarray, np.ndarray, float, float, bool]:
+    """The table of ``law`` in the kernels' layouts (cached): (main, compression, x_max,
+    gamma_max, Kelvin–Voigt)."""
+    t = normal_table(law)
+    return t.gravity_first, t.compression_gravity_first, t.x_max, t.gamma_max, t.kv
 
 
 def _solve_unit(law: str, damping: np.ndarray, gamma: np.ndarray) -> np.ndarray:
     """Tight ODE solutions of the scaled normal problem (results rows)."""
-    from ._simulate import solve_prepared
-
-    res, status = solve_prepared(_unit_prepared(law, damping, gamma), TABLE_SOLVER)
+    inputs = unit_inputs(law, damping, gamma, TABLE_SOLVER.max_contact_time_factor)
+    res, status = solve_rows(inputs, np.arange(inputs.size), TABLE_SOLVER)
     if np.any(status != K.ST_OK):  # pragma: no cover - the domain is chosen to avoid this
         raise RuntimeError(f"normal table for {law} has unsolved nodes")
     return res
@@ -126,22 +161,21 @@ def _compression_table(law: str, x_max: float, gamma_max: float, power: float) -
     nx, ng, ns = COMPRESSION_NODES
     cx, cg, cs = _cheb_nodes(nx), _cheb_nodes(ng), _cheb_nodes(ns)
     edges = np.linspace(0.0, x_max, COMPRESSION_PIECES + 1)
+    sigma = np.sort(0.5 * (1.0 + cs))
+    order = np.argsort(0.5 * (1.0 + cs))
     pieces = []
     for lo, hi in zip(edges[:-1], edges[1:], strict=True):
         x, g = np.meshgrid(lo + 0.5 * (hi - lo) * (1 + cx), 0.5 * gamma_max * (1 + cg),
                            indexing="ij")
         damping, gamma = x.ravel() ** power, g.ravel()
-        t_peak = _solve_unit(law, damping, gamma)[:, K.R_T_FN_PEAK]
-        params, y0, scale, h_max, t_max = _unit_prepared(law, damping, gamma).ode_arrays()
-        sigma = 0.5 * (1.0 + cs)
-        order = np.argsort(sigma)
+        inputs = unit_inputs(law, damping, gamma, TABLE_SOLVER.max_contact_time_factor)
         out = np.empty((2, damping.size, ns))
         for i in range(damping.size):
-            times = sigma[order] ** 2 * t_peak[i]
-            hist = np.full((ns, K.N_HISTORY), np.nan)
-            K.solve_contact(params[i], y0[i], scale[i], h_max[i], t_max[i], TABLE_SOLVER.rtol,
-                            TABLE_SOLVER.atol, TABLE_SOLVER.max_steps, times, hist,
-                            np.empty(K.N_RESULTS))
+            res, status, segs, params = solve_with_segments(inputs, i, TABLE_SOLVER)
+            if status != K.ST_OK:  # pragma: no cover - the domain is chosen to avoid this
+                raise RuntimeError(f"compression table for {law} has unsolved nodes")
+            times = sigma**2 * res[K.R_T_FN_PEAK]
+            hist = sample(res, segs, params, times)
             out[0, i, order] = hist[:, K.S_V] + 1.0 + gamma[i] * times  # impulse / (m V)
             out[1, i, order] = hist[:, K.H_FN]
         coef = _interpolate(out.reshape(2, nx, ng, ns), (cx, cg, cs))
@@ -160,30 +194,10 @@ def _interpolate(values: np.ndarray, nodes: tuple[np.ndarray, ...]) -> np.ndarra
     return np.ascontiguousarray(coef)
 
 
-@njit(cache=True, inline="always", fastmath=True)
-def _chebyshev_basis(u, out):
-    out[0] = 1.0
-    if out.shape[0] > 1:
-        out[1] = u
-    for i in range(2, out.shape[0]):
-        out[i] = 2.0 * u * out[i - 1] - out[i - 2]
-
-
-@njit(cache=True)
-def _series(c, u):
-    """Clenshaw sum of a 1-D Chebyshev series at u in [-1, 1]."""
-    b1 = 0.0
-    b2 = 0.0
-    for j in range(c.shape[0] - 1, 0, -1):
-        b1, b2 = 2.0 * u * b1 - b2 + c[j], b1
-    return u * b1 - b2 + c[0]
-
-
 @njit(cache=True, fastmath=True)
 def _contract(coef, x, gamma, x_max, gamma_max, tx, tg, out, nq=-1):
-    """out[q] = sum_ij coef[q, i, j] T_i(x) T_j(gamma) for the first ``nq`` quantities (all if
-    -1): the table at one point. The gravity axis is innermost and contiguous, so the inner
-    sums vectorise (``fastmath`` lets them be reassociated)."""
+    """Reference evaluation of a (quantity, damping, gravity) table at one point (the tests'
+    check of the table; the kernels use ``gravity_rows`` and ``x_values``)."""
     _chebyshev_basis(2.0 * x / x_max - 1.0, tx)
     _chebyshev_basis(2.0 * gamma / gamma_max - 1.0, tg)
     nq = coef.shape[0] if nq < 0 else nq
@@ -197,74 +211,93 @@ def _contract(coef, x, gamma, x_max, gamma_max, tx, tg, out, nq=-1):
         out[q] = acc
 
 
-@njit(cache=True)
-def _force_at_impulse(comp, x, gamma, x_max, gamma_max, target, tx, tg, ab):
-    """Normal force (scaled) when the impulse reaches ``target`` during compression."""
-    n_pieces = comp.shape[0]
-    width = x_max / n_pieces
-    piece = min(int(x / width), n_pieces - 1)
-    # the local variable of the piece mapped like the global one: x' in [0, x_max]
-    _contract(comp[piece], (x - piece * width) * n_pieces, gamma, x_max, gamma_max,
-              tx[:comp.shape[2]], tg[:comp.shape[3]], ab)
-    ns = comp.shape[1] // 2
-    a, b = ab[:ns], ab[ns:]
-    # sigma: the impulse grows monotonically along the compression, like sigma^2 to sigma^5
-    # near 0, where regula falsi creeps; so first bracket the root within a factor of 4
-    hi, f_hi = 1.0, _series(a, 1.0) - target
-    lo = 0.25
-    while lo > 1e-7:
-        f_lo = _series(a, 2.0 * lo - 1.0) - target
-        if f_lo <= 0.0:
-            break
-        hi, f_hi = lo, f_lo
-        lo *= 0.25
-    else:
-        lo, f_lo = 0.0, _series(a, -1.0) - target
-    sigma = 0.5 * (lo + hi)
-    side = 0
-    # Illinois regula falsi on the bracket, stopped on the bracket's width (1e-13 in sigma:
-    # far below the table's accuracy; a test on |f| could stall on rounding)
-    for _ in range(200):
-        if hi - lo <= 1e-13 or f_hi == f_lo:
-            break
-        sigma = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-        if not (lo < sigma < hi):
-            sigma = 0.5 * (lo + hi)
-        f = _series(a, 2.0 * sigma - 1.0) - target
-        if f == 0.0:
-            break
-        if f < 0.0:
-            lo, f_lo = sigma, f
-            if side == -1:
-                f_hi *= 0.5
-            side = -1
-        else:
-            hi, f_hi = sigma, f
-            if side == 1:
-                f_lo *= 0.5
-            side = 1
-    return _series(b, 2.0 * sigma - 1.0)
+@njit(cache=True, inline="always")
+def _chebyshev_basis(u, out):
+    out[0] = 1.0
+    if out.shape[0] > 1:
+        out[1] = u
+    for i in range(2, out.shape[0]):
+        out[i] = 2.0 * u * out[i - 1] - out[i - 2]
 
 
-@njit(cache=True)
-def normal_one(p, vn, coef, x_max, gamma_max, power, nq, tx, tg, vals):
-    """Table lookup of the normal impact at incident normal speed ``vn``: fills ``vals`` and
-    returns (inside the table, delta*, t*, damping number, x, gamma)."""
-    m, k, eta, gy = p[K.P_M], p[K.P_K], p[K.P_ETA], p[K.P_GY]
+@njit(cache=True, inline="always")
+def cheb_basis(u, out, n):
+    """T_0(u) .. T_{n-1}(u) (n >= 4) by doubling: T_2k = 2 T_k^2 - 1 and
+    T_{k+j} = 2 T_k T_j - T_{k-j}. The three-term recurrence is a chain of n dependent
+    multiply-adds; this is a tree of depth ~2 log2(n), whose branches the processor runs side
+    by side (the basis is on the critical path of every bounce)."""
+    out[0] = 1.0
+    out[1] = u
+    out[2] = 2.0 * u * u - 1.0
+    out[3] = 2.0 * u * out[2] - u
+    k = 4
+    while k < n:
+        tk = 2.0 * out[k // 2] * out[k // 2] - 1.0
+        out[k] = tk
+        two_tk = 2.0 * tk
+        for j in range(1, min(k, n - k)):
+            out[k + j] = two_tk * out[j] - out[k - j]
+        k *= 2
+
+
+@njit(cache=True, inline="always")
+def gravity_rows(c, gamma, gamma_max, start, stop, rows):
+    """rows[k] = sum_j c[j, k] T_j(u) for k in [start, stop), u the gravity variable: the
+    gravity axis of a gravity-first table contracted (eight terms written out, so that the
+    loop over k is plain multiply-adds the compiler vectorises)."""
+    v = 2.0 * gamma / gamma_max - 1.0
+    t2 = 2.0 * v * v - 1.0
+    t3 = 2.0 * v * t2 - v
+    t4 = 2.0 * t2 * t2 - 1.0  # the doubling formulas of cheb_basis
+    t5 = 2.0 * t4 * v - t3
+    t6 = 2.0 * t4 * t2 - t2
+    t7 = 2.0 * t4 * t3 - v
+    c0, c1, c2, c3, c4, c5, c6, c7 = c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]
+    for k in range(start, stop):
+        rows[k] = (c0[k] + c1[k] * v + c2[k] * t2 + c3[k] * t3 + c4[k] * t4 + c5[k] * t5
+                   + c6[k] * t6 + c7[k] * t7)
+
+
+@njit(cache=True, inline="always")
+def x_values(rows, n, q0, q1, u, tx, vals):
+    """vals[q] = sum_i rows[q n + i] T_i(u) for q in [q0, q1): the damping axis (basis once,
+    then dot products with four partial sums)."""
+    cheb_basis(u, tx, n)
+    for q in range(q0, q1):
+        vals[q] = _dot(rows, q * n, tx, n)
+
+
+@njit(cache=True, inline="always")
+def _dot(rows, base, tx, n):
+    """sum_i rows[base + i] tx[i], i < n, in four partial sums (one summation order for every
+    caller, so that every path rounds alike)."""
+    a0 = a1 = a2 = a3 = 0.0
+    for i in range(0, n - 3, 4):
+        a0 += rows[base + i] * tx[i]
+        a1 += rows[base + i + 1] * tx[i + 1]
+        a2 += rows[base + i + 2] * tx[i + 2]
+        a3 += rows[base + i + 3] * tx[i + 3]
+    for i in range(n - n % 4, n):
+        a0 += rows[base + i] * tx[i]
+    return (a0 + a1) + (a2 + a3)
+
+
+@njit(cache=True, inline="always")
+def normal_scales(m, k, eta, gy, vn, kv):
+    """(delta*, t*, damping number, damping variable x, gravity number) of a normal impact."""
     d_star = (m * vn * vn / k) ** 0.4
-    t_star = d_star / vn
-    damping = eta * d_star / (m * vn) if p[K.P_LAW] == K.LAW_KELVIN_VOIGT else eta * vn
-    x = damping ** (1.0 / power)
-    gamma = gy * d_star / (vn * vn)
-    if x > x_max or gamma > gamma_max:
-        return False, d_star, t_star, damping, x, gamma
-    _contract(coef, x, gamma, x_max, gamma_max, tx, tg, vals, nq)
-    return True, d_star, t_star, damping, x, gamma
+    if kv:
+        damping = eta * (d_star / (m * vn))  # as eta * C_CZ of prepare_conditions
+        x = np.cbrt(damping)
+    else:
+        damping = eta * vn
+        x = damping
+    return d_star, d_star / vn, damping, x, gy * d_star / (vn * vn)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
-    """Closed-form tangential outcome (MODEL.md §3) given the normal impulse per unit mass:
+    """Closed-form tangential outcome (docs/model.md) given the normal impulse per unit mass:
     returns (exact, u, w, phase, slides); ``exact`` is False where only the ODE can tell
     (on a slope when the slip stops, or may stop, during the contact)."""
     kappa = inertia / (m * r * r)
@@ -288,85 +321,438 @@ def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
 
 
 @njit(cache=True)
-def _fast_one(p, y0, coef, comp, x_max, gamma_max, power, full, tx, tg, vals, ab, res):
-    """Closed-form bounce of one element from the table; returns a fallback reason."""
-    r, m, inertia, mu, gx = p[K.P_R], p[K.P_M], p[K.P_I], p[K.P_MU], p[K.P_GX]
-    u0, vn, w0 = y0[K.S_U], -y0[K.S_V], y0[K.S_W]
-    inside, d_star, t_star, damping, x, gamma = normal_one(
-        p, vn, coef, x_max, gamma_max, power, N_TABLE if full else 2, tx, tg, vals)
-    if not inside:
+def _force_at_impulse(comp, x, gamma, x_max, gamma_max, target, t_peak, work, tx, ab):
+    """Normal force (scaled) when the impulse reaches ``target`` during compression.
+
+    The compression table gives the impulse Pi and the force Phi as Chebyshev series in
+    sigma = sqrt(t / t_peak); Pi(sigma) = target is solved by Newton's method with
+    dPi/dsigma = Phi * 2 sigma t_peak (dPi/dt = Phi). Pi is increasing and convex in sigma, and
+    sigma_0 = (target / Pi(1))^(1/5) lies at or beyond the root (Pi grows at most like
+    sigma^5, the undamped start), so the iterates descend onto it; a bracket catches any
+    step that would leave it.
+    """
+    n_pieces, ns2 = comp.shape[0], 2 * COMPRESSION_NODES[2]
+    nxc, ns = comp.shape[2] // ns2, COMPRESSION_NODES[2]
+    width = x_max / n_pieces
+    piece = min(int(x / width), n_pieces - 1)
+    gravity_rows(comp[piece], gamma, gamma_max, 0, comp.shape[2], work)
+    # the local variable of the piece mapped like the global one: x' in [0, x_max]
+    x_values(work, nxc, 0, ns2, 2.0 * (x - piece * width) * n_pieces / x_max - 1.0, tx, ab)
+    sigma = _first_guess(ab, ns, target, t_peak)
+    lo, hi = 0.0, 1.0
+    phi = 0.0
+    for _ in range(60):
+        pi, phi = _impulse_force(ab, ns, 2.0 * sigma - 1.0, tx)
+        f = pi - target
+        if f > 0.0:
+            hi = sigma
+        else:
+            lo = sigma
+        slope = phi * 2.0 * sigma * t_peak
+        step = f / slope if slope > 0.0 else math.inf
+        if abs(step) <= 3e-6:  # converged: quadratic, so the error after it is ~1e-11
+            sigma -= step
+            break
+        new = sigma - step
+        if not (lo <= new <= hi):  # a step out of the bracket: bisect instead
+            new = 0.5 * (lo + hi)
+        if hi - lo <= 1e-12:
+            break
+        sigma = new
+    return _impulse_force(ab, ns, 2.0 * sigma - 1.0, tx)[1]
+
+
+@njit(cache=True, inline="always")
+def _first_guess(ab, ns, target, t_peak):
+    """Root of the two-term model Pi ~ alpha sigma^2 + beta sigma^5 of the compression: alpha
+    from Pi''(0) = 2 t_peak Phi(0) (the initial force of Kelvin–Voigt), beta from Pi(1); both
+    sums are free (T_k(1) = 1, T_k(-1) = (-1)^k). Newton on the model from
+    (target / Pi(1))^(1/5), which lies at or beyond its root, descends onto it."""
+    pi_end = 0.0
+    phi_start = 0.0
+    sign = 1.0
+    for i in range(ns):
+        pi_end += ab[i]
+        phi_start += sign * ab[ns + i]
+        sign = -sign
+    if not pi_end > 0.0:
+        return 1.0
+    sigma = min(1.0, (target / pi_end) ** 0.2)
+    alpha = max(t_peak * phi_start, 0.0)
+    beta = pi_end - alpha
+    if beta <= 0.0:
+        return sigma
+    for _ in range(12):
+        s2 = sigma * sigma
+        s4 = s2 * s2
+        f = alpha * s2 + beta * s4 * sigma - target
+        step = f / (2.0 * alpha * sigma + 5.0 * beta * s4)
+        sigma -= step
+        if abs(step) <= 1e-3 * sigma:  # the model is only good to a few per cent anyway
+            break
+    return min(max(sigma, 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
+def _impulse_force(ab, ns, u, tx):
+    """(Pi, Phi) of the compression series at u = 2 sigma - 1 (one basis for both)."""
+    cheb_basis(u, tx, ns)
+    a0 = a1 = b0 = b1 = 0.0
+    for i in range(0, ns - 1, 2):
+        a0 += ab[i] * tx[i]
+        a1 += ab[i + 1] * tx[i + 1]
+        b0 += ab[ns + i] * tx[i]
+        b1 += ab[ns + i + 1] * tx[i + 1]
+    if ns % 2:
+        a0 += ab[ns - 1] * tx[ns - 1]
+        b0 += ab[2 * ns - 1] * tx[ns - 1]
+    return a0 + a1, b0 + b1
+
+
+@njit(cache=True)
+def _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows, tx, vals,
+                work, ab, out):
+    """Closed-form bounce of element ``i`` (gravity components gx, gy) with every output;
+    returns a fallback reason (> 0), 0 when it slides, -1 when it rolls."""
+    r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
+    mu, eta, k, gx, gy, u0, vn, w0 = element_with(values, ball, i, gx, gy)
+    d_star, t_star, damping, x, gamma = normal_scales(m, k, eta, gy, vn, kv)
+    if not (x <= x_max and gamma <= gamma_max):
         return FB_DOMAIN
+    gravity_rows(main, gamma, gamma_max, 0, T_PPK * NX, rows)
+    x_values(rows, NX, T_E, T_PPK, 2.0 * x / x_max - 1.0, tx, vals)
     tc = vals[T_TC] * t_star
     impulse = vn * (1.0 + vals[T_E] + gamma * vals[T_TC])  # P / m over the contact
     exact, u, w, phase, slides = tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse)
     if not exact:
         return FB_SLOPE
-    kv = p[K.P_LAW] == K.LAW_KELVIN_VOIGT
     f_scale = m * vn * vn / d_star
-    fn_peak = max(vals[T_FN], damping if kv else 0.0) * f_scale if full else math.nan
+    fn_peak = max(vals[T_FN], damping if kv else 0.0) * f_scale
     ft_peak = mu * fn_peak
-    s0 = u0 + r * w0
     if not slides:
+        s0 = u0 + r * w0
         slip_rate = mu * (1.0 + m * r * r / inertia)
         if s0 == 0.0:
             ft_peak = 0.0
-        elif full and abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
-            phi = _force_at_impulse(comp, x, gamma, x_max, gamma_max,
-                                    abs(s0) / (slip_rate * vn), tx, tg, ab)
-            ft_peak = mu * max(phi, damping if kv else 0.0) * f_scale
-    if not full:  # rebound-only evaluation: the rest was not computed
-        vals[2:] = math.nan
-    res[K.R_TC] = tc
-    res[K.R_X] = math.nan
-    res[K.R_D] = vals[T_DSEP] * d_star
-    res[K.R_U] = u
-    res[K.R_V] = vals[T_E] * vn
-    res[K.R_W] = w
-    res[K.R_FN_PEAK] = fn_peak
-    res[K.R_FT_PEAK] = ft_peak
-    res[K.R_D_MAX] = vals[T_DMAX] * d_star
-    res[K.R_PHASE] = phase
-    res[K.R_STEPS] = 0.0
-    res[K.R_SWITCHES] = 0.0 if slides else 1.0
-    res[K.R_T_FN_PEAK] = vals[T_TPK] * t_star
-    res[K.R_V_FN_PEAK] = math.nan
-    return FB_NONE
+        else:
+            gravity_rows(main, gamma, gamma_max, T_PPK * NX, N_TABLE * NX, rows)
+            x_values(rows, NX, T_PPK, N_TABLE, 2.0 * x / x_max - 1.0, tx, vals)
+            if abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
+                phi = _force_at_impulse(comp, x, gamma, x_max, gamma_max,
+                                        abs(s0) / (slip_rate * vn), vals[T_TPK], work, tx, ab)
+                ft_peak = mu * max(phi, damping if kv else 0.0) * f_scale
+    vn_out = vals[T_E] * vn
+    out[O_SPEED, i], out[O_ANGLE, i] = speed_angle(u, vn_out)
+    out[O_SPIN, i] = w
+    out[O_U, i] = u
+    out[O_VN, i] = vn_out
+    out[O_TC, i] = tc
+    out[O_FN, i] = fn_peak
+    out[O_FT, i] = ft_peak
+    out[O_DMAX, i] = vals[T_DMAX] * d_star
+    out[O_DSEP, i] = vals[T_DSEP] * d_star
+    out[O_TPK, i] = vals[T_TPK] * t_star
+    out[O_STEPS, i] = 0.0
+    return FB_NONE if phase != 0.0 else -1  # -1: solved, rolling
 
 
-CHUNK = 64  # elements per parallel task: work arrays are allocated once per chunk
+@njit(cache=True)
+def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max, gamma_max,
+                 kv, start, stop, out, status, rolling, flags, fallback):
+    """Full closed-form bounces of elements [start, stop): outputs, status, flags (Hertz
+    validity, closed form) and fallback reasons; returns (invalid, fallback) counts.
+    ``check_each``: whether elements may lie outside their bounds (see ``all_valid``)."""
+    rows = np.empty(N_TABLE * NX)
+    tx = np.empty(NX)
+    vals = np.empty(N_TABLE)
+    work = np.empty(comp.shape[2])
+    ab = np.empty(2 * COMPRESSION_NODES[2])
+    limit = HERTZ_OVERLAP_LIMIT * ball[B_R]
+    shared_gravity = values[I_INCL].shape[0] == 1 and values[I_G].shape[0] == 1
+    gx, gy = gravity_parts(values, 0)
+    n_invalid = n_fallback = 0
+    for i in range(start, stop):
+        reason = FB_ODE
+        if check_each and not valid(values, bounds, i):
+            fill_failed(out, i, status, K.ST_INVALID, rolling, flags)
+            fallback[i] = FB_NONE
+            n_invalid += 1
+            continue
+        if closed_form:
+            if not shared_gravity:
+                gx, gy = gravity_parts(values, i)
+            reason = _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows,
+                                 tx, vals, work, ab, out)
+        if reason > 0:
+            fill_failed(out, i, status, K.ST_OK, rolling, flags)
+            n_fallback += 1
+            fallback[i] = reason
+            continue
+        fallback[i] = FB_NONE
+        status[i] = K.ST_OK
+        rolling[i] = reason < 0
+        flags[0, i] = out[O_DMAX, i] <= limit
+        flags[1, i] = True
+    return n_invalid, n_fallback
 
 
 @njit(cache=True, parallel=True)
-def fast_batch(params, y0, coef, comp, x_max, gamma_max, power, full, status, res, fallback):
-    """Closed-form bounces for every valid element; ``fallback`` marks those needing the ODE."""
-    n = params.shape[0]
-    for c in prange((n + CHUNK - 1) // CHUNK):
-        tx = np.empty(coef.shape[1])
-        tg = np.empty(coef.shape[2])
-        vals = np.empty(coef.shape[0])
-        ab = np.empty(comp.shape[1])  # work array of the compression series
-        for i in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
-            if status[i] == K.ST_OK:
-                fallback[i] = _fast_one(params[i], y0[i], coef, comp, x_max, gamma_max, power,
-                                        full, tx, tg, vals, ab, res[i])
+def bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max, gamma_max,
+                    kv, out, status, rolling, flags, fallback):
+    """:func:`bounce_range` over all elements, in parallel chunks; returns the counts."""
+    n = status.shape[0]
+    n_chunks = (n + CHUNK - 1) // CHUNK
+    counts = np.zeros((n_chunks, 2), dtype=np.int64)
+    for c in prange(n_chunks):
+        a, b = bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                            gamma_max, kv, c * CHUNK, min(n, (c + 1) * CHUNK), out, status,
+                            rolling, flags, fallback)
+        counts[c, 0] = a
+        counts[c, 1] = b
+    return counts[:, 0].sum(), counts[:, 1].sum()
 
 
-def fast_prepared(prep, law: str, full: bool = True):
-    """Run :func:`fast_batch` on prepared elements: (results, status, fallback reasons)."""
-    return fast_arrays(prep.params, prep.y0, prep.status, law, full)
+def bounces(values, ball, bounds, closed_form: bool, tables, out, status, rolling, flags,
+            fallback) -> tuple[int, int]:
+    """Full closed-form bounces of every element (serial for small batches) with the
+    ``tables`` of :func:`kernel_tables`; fallback rows are left for the ODE solver. Returns
+    (invalid, fallback) counts."""
+    main, comp, x_max, gamma_max, kv = tables
+    check_each = not all_valid(values, bounds)
+    if status.size <= SERIAL_MAX:
+        return bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                            gamma_max, kv, 0, status.size, out, status, rolling, flags, fallback)
+    return bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                           gamma_max, kv, out, status, rolling, flags, fallback)
 
 
-def fast_arrays(params: np.ndarray, y0: np.ndarray, status: np.ndarray, law: str,
-                full: bool = True):
-    """:func:`fast_batch` on raw kernel arrays: (results, status, fallback reasons).
+# --- conditions fixed, parameters varying (samplers) -------------------------------------------
 
-    ``full=False`` computes only the rebound (velocities, spin, regime, contact time): what
-    likelihoods need, about three times faster; forces and overlaps are then NaN."""
-    table = normal_table(law)
-    status = status.copy()
-    res = np.empty((status.size, K.N_RESULTS))  # rows the kernel does not write: set below
-    fallback = np.zeros(status.size, dtype=np.int8)
-    fast_batch(params, y0, table.coef, table.compression, table.x_max, table.gamma_max,
-               table.power, full, status, res, fallback)
-    res[(status != K.ST_OK) | (fallback != 0)] = np.nan
-    return res, status, fallback
+# Per-condition fields of ``prepare_conditions``.
+(C_MU, C_ETA, C_SPIN, C_E, C_K, C_GX, C_GY, C_U0, C_VN, C_DSTAR, C_TSTAR, C_GAMMA, C_CZ,
+ C_STATE) = range(14)
+N_COND = 14
+CS_INVALID, CS_OUTSIDE, CS_TABLE = 0.0, 1.0, 2.0  # condition states
+
+
+@njit(cache=True)
+def prepare_conditions(values, ball, bounds, main, gamma_max, kv, cond, cond_rows):
+    """Per condition: its inputs and derived quantities (``C_*``), and the gravity-contracted
+    rows of restitution and contact time (the part of the table a parameter change does not
+    touch when the modulus is fixed)."""
+    m = ball[B_M]
+    for c in range(cond.shape[1]):
+        mu, eta, k, gx, gy, u0, vn, w0 = element(values, ball, c)
+        cond[C_MU, c], cond[C_ETA, c], cond[C_SPIN, c] = mu, eta, w0
+        cond[C_E, c] = at(values[I_E], c)
+        cond[C_K, c], cond[C_GX, c], cond[C_GY, c] = k, gx, gy
+        cond[C_U0, c], cond[C_VN, c] = u0, vn
+        if not valid(values, bounds, c):
+            cond[C_STATE, c] = CS_INVALID
+            continue
+        d_star, t_star, damping, x, gamma = normal_scales(m, k, 1.0, gy, vn, kv)
+        cond[C_DSTAR, c], cond[C_TSTAR, c], cond[C_GAMMA, c] = d_star, t_star, gamma
+        cond[C_CZ, c] = damping  # damping number per unit eta
+        if gamma <= gamma_max:
+            cond[C_STATE, c] = CS_TABLE
+            gravity_rows(main, gamma, gamma_max, 0, 2 * NX, cond_rows[c])
+        else:
+            cond[C_STATE, c] = CS_OUTSIDE
+
+
+@njit(cache=True, inline="always")
+def _pick(theta, r, col, cond, field, c):
+    """Parameter ``col`` of row ``r``, or the condition's value where it does not vary."""
+    return theta[r, col] if col >= 0 else cond[field, c]
+
+
+@njit(cache=True, inline="always")
+def _row_valid(theta, r, cols, bounds):
+    """Whether the varying parameters of row ``r`` lie in their bounds (False for NaN)."""
+    for k, index in ((0, I_MU), (1, I_ETA), (2, I_E), (3, I_SPIN)):
+        if cols[k] >= 0 and not bounds[index, 0] <= theta[r, cols[k]] <= bounds[index, 1]:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_max, kv, rows, tx,
+                 vals, out):
+    """Rebound of parameter row ``r`` (valid) under condition ``c`` into ``out[:, r, c]``;
+    returns -1 (rolling) / -2 (sliding) when solved, -3 for the ODE, or a status code."""
+    state = cond[C_STATE, c]
+    if state == CS_INVALID:
+        return K.ST_INVALID
+    mu = _pick(theta, r, cols[0], cond, C_MU, c)
+    eta = _pick(theta, r, cols[1], cond, C_ETA, c)
+    vn = cond[C_VN, c]
+    if cols[2] >= 0:  # the modulus varies: the normal impact is computed afresh
+        d_star, t_star, damping, x, gamma = normal_scales(
+            ball[B_M], ball[B_KFAC] * theta[r, cols[2]], eta, cond[C_GY, c], vn, kv)
+        if not (x <= x_max and gamma <= gamma_max):
+            return -3
+        gravity_rows(main, gamma, gamma_max, 0, 2 * NX, rows)
+        x_values(rows, NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
+    else:
+        if state == CS_OUTSIDE:
+            return -3
+        t_star, gamma = cond[C_TSTAR, c], cond[C_GAMMA, c]
+        x = np.cbrt(eta * cond[C_CZ, c]) if kv else eta * vn
+        if not x <= x_max:
+            return -3
+        x_values(cond_rows[c], NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
+    tc = vals[T_TC] * t_star
+    impulse = vn * (1.0 + vals[T_E] + gamma * vals[T_TC])
+    exact, u, w, phase, slides = tangential_one(
+        ball[B_R], ball[B_M], ball[B_I], mu, cond[C_GX, c], cond[C_U0, c],
+        _pick(theta, r, cols[3], cond, C_SPIN, c), tc, impulse)
+    if not exact:
+        return -3
+    out[RB_SPEED, r, c], out[RB_ANGLE, r, c] = speed_angle(u, vals[T_E] * vn)
+    out[RB_SPIN, r, c] = w
+    out[RB_TC, r, c] = tc
+    return -1 if phase == 0.0 else -2
+
+
+@njit(cache=True, inline="always")
+def _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, codes, out):
+    """:func:`_rebound_one` for every condition of row ``r`` when the modulus is fixed, in
+    three passes over the conditions (damping variable, table, friction and output): short
+    loop bodies whose iterations the processor overlaps, where one long body per bounce is a
+    chain of dependent steps. The arithmetic is exactly that of :func:`_rebound_one`."""
+    nc = cond.shape[1]
+    eta_r = theta[r, cols[1]] if cols[1] >= 0 else 0.0
+    for c in range(nc):
+        eta = eta_r if cols[1] >= 0 else cond[C_ETA, c]
+        stage[0, c] = np.cbrt(eta * cond[C_CZ, c]) if kv else eta * cond[C_VN, c]
+    for c in range(nc):
+        state = cond[C_STATE, c]
+        x = stage[0, c]
+        if state == CS_INVALID:
+            codes[c] = K.ST_INVALID
+        elif state == CS_OUTSIDE or not x <= x_max:
+            codes[c] = -3
+        else:
+            codes[c] = 0
+            row = cond_rows[c]
+            cheb_basis(2.0 * x / x_max - 1.0, tx, NX)
+            stage[1, c] = _dot(row, T_E * NX, tx, NX)
+            stage[2, c] = _dot(row, T_TC * NX, tx, NX)
+    for c in range(nc):
+        if codes[c] != 0:
+            continue
+        e, tc_scaled = stage[1, c], stage[2, c]
+        vn = cond[C_VN, c]
+        tc = tc_scaled * cond[C_TSTAR, c]
+        impulse = vn * (1.0 + e + cond[C_GAMMA, c] * tc_scaled)
+        exact, u, w, phase, slides = tangential_one(
+            ball[B_R], ball[B_M], ball[B_I], _pick(theta, r, cols[0], cond, C_MU, c),
+            cond[C_GX, c], cond[C_U0, c], _pick(theta, r, cols[3], cond, C_SPIN, c), tc,
+            impulse)
+        if not exact:
+            codes[c] = -3
+            continue
+        out[RB_SPEED, r, c], out[RB_ANGLE, r, c] = speed_angle(u, e * vn)
+        out[RB_SPIN, r, c] = w
+        out[RB_TC, r, c] = tc
+        codes[c] = -1 if phase == 0.0 else -2
+
+
+@njit(cache=True)
+def rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, r0,
+                  r1, out, status, rolling, ok, fallback):
+    """Rebounds of parameter rows [r0, r1) under every condition, into ``out[:, r, c]`` and
+    the (row, condition) arrays; marks ``fallback`` for the ODE and returns how many."""
+    nc = cond.shape[1]
+    rows = np.empty(2 * NX)
+    tx = np.empty(NX)
+    vals = np.empty(2)
+    codes = np.empty(nc, dtype=np.int64)
+    stage = np.empty((3, nc))
+    n_fallback = 0
+    for r in range(r0, r1):
+        row_ok = _row_valid(theta, r, cols, bounds)
+        if row_ok and cols[2] < 0:
+            _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, codes, out)
+        for c in range(nc):
+            code = K.ST_INVALID
+            if row_ok and cols[2] < 0:
+                code = codes[c]
+            elif row_ok:
+                code = _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max,
+                                    gamma_max, kv, rows, tx, vals, out)
+            if code < -2:
+                n_fallback += 1
+            if code < 0:
+                status[r, c] = K.ST_OK
+                ok[r, c] = code > -3
+                rolling[r, c] = code == -1
+                fallback[r, c] = code == -3
+                if code > -3:
+                    continue
+            else:
+                status[r, c] = code
+                ok[r, c] = False
+                rolling[r, c] = False
+                fallback[r, c] = False
+            for q in range(out.shape[0]):
+                out[q, r, c] = math.nan
+    return n_fallback
+
+
+@njit(cache=True, parallel=True)
+def rebound_parallel(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, out,
+                     status, rolling, ok, fallback):
+    """:func:`rebound_range` over all parameter rows in parallel chunks of rows; returns the
+    fallback count."""
+    n = theta.shape[0]
+    step = max(1, CHUNK // cond.shape[1])
+    n_chunks = (n + step - 1) // step
+    counts = np.zeros(n_chunks, dtype=np.int64)
+    for k in prange(n_chunks):
+        counts[k] = rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max,
+                                  gamma_max, kv, k * step, min(n, (k + 1) * step), out, status,
+                                  rolling, ok, fallback)
+    return counts.sum()
+
+
+@njit(cache=True, parallel=True)
+def gaussian_grid(mu, eta, cond, cond_rows, ball, bounds, x_max, gamma_max, kv, speed_obs,
+                  angle_obs, icov, log_norm, out, bad):
+    """Sum over conditions of bivariate-normal log densities of the (rebound speed, angle)
+    misfits on a (mu, eta) grid: the normal impact once per (eta, condition), the tangential
+    outcome per mu. ``icov`` rows hold the inverse covariance (ss, sa, aa); ``bad`` marks
+    cells the closed form cannot do (the caller recomputes them)."""
+    n_mu, n_eta, nc = mu.size, eta.size, cond.shape[1]
+    r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
+    for j in prange(n_eta):
+        tx = np.empty(NX)
+        vals = np.empty(2)
+        for i in range(n_mu):
+            out[i, j] = 0.0
+            if not (bounds[I_MU, 0] <= mu[i] <= bounds[I_MU, 1]
+                    and bounds[I_ETA, 0] <= eta[j] <= bounds[I_ETA, 1]):
+                bad[i, j] = True
+        for c in range(nc):
+            vn = cond[C_VN, c]
+            x = np.cbrt(eta[j] * cond[C_CZ, c]) if kv else eta[j] * vn
+            if cond[C_STATE, c] != CS_TABLE or not x <= x_max:
+                for i in range(n_mu):
+                    bad[i, j] = True
+                continue
+            x_values(cond_rows[c], NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
+            tc = vals[T_TC] * cond[C_TSTAR, c]
+            impulse = vn * (1.0 + vals[T_E] + cond[C_GAMMA, c] * vals[T_TC])
+            vn_out = vals[T_E] * vn
+            for i in range(n_mu):
+                exact, u, w, phase, slides = tangential_one(
+                    r, m, inertia, mu[i], cond[C_GX, c], cond[C_U0, c], cond[C_SPIN, c], tc,
+                    impulse)
+                if not exact:
+                    bad[i, j] = True
+                    continue
+                speed, angle = speed_angle(u, vn_out)
+                ds = speed - speed_obs[c]
+                da = angle - angle_obs[c]
+                out[i, j] -= 0.5 * (icov[c, 0] * ds * ds + 2.0 * icov[c, 1] * ds * da
+                                    + icov[c, 2] * da * da) + log_norm[c]

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from .._validate import check_scalar
 from . import _kernel as K
+from ._arrays import explain_invalid
 from ._config import PAPER_BALL, STANDARD_GRAVITY, Ball, SolverConfig
-from ._simulate import Bounces, SimulationWarning, _prepare, simulate
+from ._engine import BounceModel, ode_bounce
+from ._ode import sample, solve_with_segments
+from ._results import Bounces
 
 
 class BounceFailed(RuntimeError):
@@ -80,35 +82,39 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
     for name, value in kwargs.items():
         if value is not None:
             check_scalar(name, value)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", SimulationWarning)
-        # the ODE path: the samples below come from the same integration, so the contact
-        # time (their last sample) is exactly the one the summary reports
-        bounce = simulate(ball, normal_law=normal_law, solver=solver, method="ode", **kwargs)
+    model = BounceModel(ball, mu=mu, eta=eta, speed=speed, angle=angle, spin=spin,
+                        inclination=inclination, youngs_modulus=youngs_modulus, gravity=gravity,
+                        normal_law=normal_law, solver=solver)
+    explain_invalid(model.values, model.normal_law)
+    # the ODE path, its dense output kept: the samples and the summary come from one solve
+    res, status, segs, params = solve_with_segments(model.inputs, 0, solver)
+    bounce = ode_bounce(model.inputs, res, status, ball.radius)
     if bounce.n_failed:
         raise BounceFailed(int(bounce.status), f"the bounce could not be solved: "
                                                f"{bounce.failure_summary()}")
-    values = dict(kwargs, youngs_modulus=ball.youngs_modulus if youngs_modulus is None
-                  else youngs_modulus)
-    prep = _prepare(ball, values, normal_law, solver, "raise")
     tc = float(bounce.contact_time)
     t_contact = np.linspace(0.0, tc, n_contact)
-    hist = np.full((n_contact, K.N_HISTORY), np.nan)
-    params, y0, scale, h_max, t_max = prep.ode_arrays()
-    K.solve_contact(params[0], y0[0], scale[0], h_max[0], t_max[0], solver.rtol, solver.atol,
-                    solver.max_steps, t_contact, hist, np.empty(K.N_RESULTS))
+    hist = sample(res, segs, params, t_contact)
     span = tc if flight_time is None else check_scalar("flight_time", flight_time, unit="s",
                                                        low=0.0, low_open=True)
-    gx, gy, r = float(prep.gravity_x[0]), float(prep.gravity_y[0]), ball.radius
+    return _with_flights(ball, bounce, t_contact, hist, params, span, n_flight)
+
+
+def _with_flights(ball: Ball, bounce: Bounces, t_contact: np.ndarray, hist: np.ndarray,
+                  params: np.ndarray, span: float, n_flight: int) -> BounceHistory:
+    """The contact samples with ``n_flight`` ballistic samples over ``span`` on either side."""
+    tc = t_contact[-1]
+    gx, gy, r = params[K.P_GX], params[K.P_GY], ball.radius
     t_before = np.linspace(-span, 0.0, n_flight, endpoint=False)
     t_after = np.linspace(0.0, span, n_flight + 1)[1:]
-    before = _ballistic(t_before, 0.0, r, prep.y0[0, K.S_U], prep.y0[0, K.S_V], gx, gy)
+    first = hist[0]
+    before = _ballistic(t_before, 0.0, r, first[K.S_U], first[K.S_V], gx, gy)
     last = hist[-1]
     after = _ballistic(t_after, last[K.S_X], r - last[K.S_D], last[K.S_U], last[K.S_V], gx, gy)
     contact = (hist[:, K.S_X], r - hist[:, K.S_D], hist[:, K.S_U], hist[:, K.S_V])
     parts = [np.concatenate([b, c, a]) for b, c, a in zip(before, contact, after, strict=True)]
     zeros = np.zeros(n_flight)
-    spin_series = np.concatenate([np.full(n_flight, prep.y0[0, K.S_W]), hist[:, K.S_W],
+    spin_series = np.concatenate([np.full(n_flight, first[K.S_W]), hist[:, K.S_W],
                                   np.full(n_flight, last[K.S_W])])
     return BounceHistory(
         time=np.concatenate([t_before, t_contact, tc + t_after]),
@@ -116,6 +122,6 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
         spin=spin_series,
         normal_force=np.concatenate([zeros, hist[:, K.H_FN], zeros]),
         friction_force=np.concatenate([zeros, hist[:, K.H_FT], zeros]),
-        in_contact=np.concatenate([zeros, np.ones(n_contact), zeros]).astype(bool),
+        in_contact=np.concatenate([zeros, np.ones(t_contact.size), zeros]).astype(bool),
         rolling=np.concatenate([zeros, hist[:, K.H_PHASE] == 0, zeros]).astype(bool),
         bounce=bounce, mass=ball.mass, moment_of_inertia=ball.moment_of_inertia, radius=r)

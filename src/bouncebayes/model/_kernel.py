@@ -4,16 +4,24 @@ Written by hand (not SciPy's ``solve_ivp``) because the solver must run inside a
 loop over many parameter sets, and no maintained library offers an adaptive Runge–Kutta method
 callable from numba with event location and a switch of right-hand side at each event (the
 slip/roll transitions of Coulomb friction). The tableau and the dense-output matrix are the ones
-SciPy's ``RK45`` uses (Dormand & Prince 1980; Shampine 1986); ``tests/test_model_kernel.py`` checks
+SciPy's ``RK45`` uses (Dormand & Prince 1980; Shampine 1986); ``tests/test_model.py`` checks
 them against ``scipy.integrate.RK45`` so that they cannot drift.
 
-Everything here works on plain float arrays with fixed layouts (the ``P_*``, ``S_*`` and ``R_*``
-indices); the Python layer in ``_simulate.py`` builds and reads them.
+Everything here works on plain float arrays with fixed layouts (the ``P_*``, ``S_*``, ``R_*``
+and ``G_*`` indices); ``_arrays.py`` builds them, ``_ode.py`` drives the solver in chunks.
 
-State (plane-aligned frame, MODEL.md §1): ``x`` along the plane since first contact, overlap
+State (plane-aligned frame, docs/model.md): ``x`` along the plane since first contact, overlap
 ``d = r - y`` (positive in contact), tangential velocity ``u``, normal velocity ``vn = y'``
 (outward positive) and spin ``w`` (counter-clockwise positive). The tangential phase is
 ``+1``/``-1`` (sliding with slip velocity ``s = u + r w`` of that sign) or ``0`` (rolling, s = 0).
+
+Extending the model: every loop runs over ``N_STATE`` and ``N_PARAMS``, so a tangential spring
+(its elongation a new state ``S_XI``, its stiffness and damping new parameters) is a new index
+in each layout, its tolerance scale in ``_arrays.ode_inputs``, its terms in :func:`rhs` and a
+stick condition in :func:`event_value`; a new normal law is a new ``LAW_*`` code with its branch
+in :func:`normal_force`, :func:`normal_force_rate` and the separation event. The closed-form
+path applies only to the laws it has a table for (``_fast.DOMAIN``) and to models without
+tangential compliance; everything else goes to this solver element by element.
 """
 
 from __future__ import annotations
@@ -36,6 +44,11 @@ N_RESULTS = 14
 # History columns: state, then normal force, friction force, phase.
 H_FN, H_FT, H_PHASE = 5, 6, 7
 N_HISTORY = 8
+# Dense-output segments (one per accepted step, cut at events): start time, step size, the
+# fraction of the step kept, tangential phase, the state at the start, the polynomial Q.
+G_T0, G_H, G_THETA, G_PHASE, G_Y0 = 0, 1, 2, 3, 4
+G_Q = G_Y0 + N_STATE
+N_SEGMENT = G_Q + 4 * N_STATE
 
 LAW_KELVIN_VOIGT = 0
 LAW_HUNT_CROSSLEY = 1
@@ -46,6 +59,8 @@ ST_INVALID = 1
 ST_NO_SEPARATION = 2
 ST_MAX_STEPS = 3
 ST_STEP_UNDERFLOW = 4
+ST_NONFINITE = 5
+ST_TIMEOUT = 6  # set by the Python driver for elements it did not reach before its deadline
 
 # Events.
 EV_NONE, EV_SEPARATION, EV_STICK, EV_SLIP, EV_MAX_OVERLAP = 0, 1, 2, 3, 4
@@ -111,7 +126,7 @@ def friction_force(fn, phase, p):
 
 @njit(cache=True)
 def rhs(y, p, phase, out):
-    """Equations of motion in contact (MODEL.md §2) for the given tangential phase."""
+    """Equations of motion in contact (docs/model.md §2) for the given tangential phase."""
     fn = normal_force(y[S_D], y[S_V], p)
     ft = friction_force(fn, phase, p)
     out[S_X] = y[S_U]
@@ -235,23 +250,51 @@ def phase_after_stick(y, p):
 
 
 @njit(cache=True)
-def record_history(t0, t1, y0, q, h, p, phase, t_out, hist, io, work):
-    """Write dense-output samples for the requested times in (t0, t1]."""
-    while io < t_out.shape[0] and t_out[io] <= t1:
-        if t_out[io] >= t0:
-            if h > 0.0:
-                interpolate(y0, q, h, (t_out[io] - t0) / h, work)
-            else:
-                for j in range(N_STATE):
-                    work[j] = y0[j]
-            fn = normal_force(work[S_D], work[S_V], p)
-            for j in range(N_STATE):
-                hist[io, j] = work[j]
-            hist[io, H_FN] = fn
-            hist[io, H_FT] = friction_force(fn, phase, p)
-            hist[io, H_PHASE] = phase
-        io += 1
-    return io
+def store_segment(segs, n, t, h, theta_end, phase, y0, q):
+    """Keep the dense output of an accepted step (``segs`` has no rows when not recording)."""
+    if n >= segs.shape[0]:
+        return
+    row = segs[n]
+    row[G_T0] = t
+    row[G_H] = h
+    row[G_THETA] = theta_end
+    row[G_PHASE] = phase
+    for i in range(N_STATE):
+        row[G_Y0 + i] = y0[i]
+        for j in range(4):
+            row[G_Q + 4 * i + j] = q[i, j]
+
+
+@njit(cache=True)
+def sample_segments(segs, n_segs, p, times, final, final_phase, hist):
+    """Sample the kept dense output at ascending ``times`` (from 0 to the separation time):
+    state, normal force, friction force and phase per row of ``hist``. Times at or after the
+    end of the last segment take the final state (exactly the reported rebound)."""
+    q = np.empty((N_STATE, 4))
+    work = np.empty(N_STATE)
+    t_end = segs[n_segs - 1, G_T0] + segs[n_segs - 1, G_THETA] * segs[n_segs - 1, G_H]
+    k = 0
+    for io in range(times.shape[0]):
+        t = times[io]
+        if t >= t_end:
+            for i in range(N_STATE):
+                work[i] = final[i]
+            phase = final_phase
+        else:
+            while k + 1 < n_segs and segs[k + 1, G_T0] < t:
+                k += 1
+            row = segs[k]
+            for i in range(N_STATE):
+                for j in range(4):
+                    q[i, j] = row[G_Q + 4 * i + j]
+            interpolate(row[G_Y0:G_Q], q, row[G_H], (t - row[G_T0]) / row[G_H], work)
+            phase = row[G_PHASE]
+        fn = normal_force(work[S_D], work[S_V], p)
+        for i in range(N_STATE):
+            hist[io, i] = work[i]
+        hist[io, H_FN] = fn
+        hist[io, H_FT] = friction_force(fn, phase, p)
+        hist[io, H_PHASE] = phase
 
 
 @njit(cache=True)
@@ -307,8 +350,14 @@ def dopri_step(y, h, p, phase, k, tmp, y1, scale, rtol, atol):
 
 
 @njit(cache=True)
-def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist, res):
-    """Integrate one contact phase from first touch to separation; fill ``res``; return status."""
+def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, segs, res):
+    """Integrate one contact phase from first touch to separation; fill ``res``; return status.
+
+    ``segs`` (rows of ``N_SEGMENT``) receives the dense output of every accepted step when it
+    has rows (``max_steps`` rows always suffice), for :func:`sample_segments`.
+    """
+    if not finite_inputs(p, y0, scale, h_max, t_max):
+        return ST_NONFINITE
     y = y0.copy()
     y1 = np.empty(N_STATE)
     work = np.empty(N_STATE)
@@ -324,25 +373,26 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
     fn_peak, t_fn_peak, v_fn_peak = fn0, 0.0, y[S_V]
     ft_peak = abs(friction_force(fn0, phase, p))
     d_max = max(y[S_D], 0.0)
-    n_steps = 0
+    n_steps = 0  # accepted steps
+    n_attempts = 0  # accepted and rejected: what max_steps caps
     n_switch = 0
-    io = record_history(-1.0, 0.0, y, q, 0.0, p, phase, t_out, hist, 0, work)
     # Event functions and the force rate at the start of the step, carried between steps.
     kind = phase_event_kind(phase, p)
     g_sep = event_value(EV_SEPARATION, y, p, phase)
     g_phase = event_value(kind, y, p, phase) if kind != EV_NONE else 0.0
     rate0 = normal_force_rate(y, k[0], p)
     while True:
-        if n_steps >= max_steps:
+        if n_attempts >= max_steps:
             return ST_MAX_STEPS
         if t >= t_max:
             return ST_NO_SEPARATION
         h = min(h, h_max)
+        if not (h >= h_min):  # also catches NaN
+            return ST_STEP_UNDERFLOW if h < h_min else ST_NONFINITE
+        n_attempts += 1
         err = dopri_step(y, h, p, phase, k, tmp, y1, scale, rtol, atol)
         if not (err <= 1.0):  # also catches NaN
             h *= MIN_FACTOR if err != err else max(MIN_FACTOR, SAFETY * err ** -0.2)
-            if h < h_min:
-                return ST_STEP_UNDERFLOW
             continue
         n_steps += 1
         have_q = False
@@ -400,10 +450,10 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
                 interpolate(y, q, h, th, work)
                 fn_peak, t_fn_peak, v_fn_peak = fmax, t + th * h, work[S_V]
             ft_peak = max(ft_peak, abs(friction_force(fmax, phase, p)))
-        if t_out.shape[0] > 0:
+        if segs.shape[0] > 0:
             if not have_q:
                 dense_coefficients(k, q)
-            io = record_history(t, t_end, y, q, h, p, phase, t_out, hist, io, work)
+            store_segment(segs, n_steps - 1, t, h, theta_end, phase, y, q)
         t = t_end
         for i in range(N_STATE):
             y[i] = y1[i]
@@ -437,12 +487,26 @@ def solve_contact(p, y0, scale, h_max, t_max, rtol, atol, max_steps, t_out, hist
         h *= MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** -0.2)
 
 
+@njit(cache=True)
+def finite_inputs(p, y0, scale, h_max, t_max):
+    """Whether the element's arrays are finite and its step and time limits positive (inputs
+    that overflowed while being prepared would otherwise give infinite step sizes)."""
+    if not (0.0 < h_max < math.inf and 0.0 < t_max < math.inf):
+        return False
+    for i in range(N_STATE):
+        if not (math.isfinite(y0[i]) and 0.0 < scale[i] < math.inf):
+            return False
+    for i in range(P_DSCALE + 1):
+        if not math.isfinite(p[i]):
+            return False
+    return True
+
+
 @njit(cache=True, parallel=True)
 def solve_batch(params, y0, scale, h_max, t_max, rtol, atol, max_steps, status, res):
     """Solve every element whose status is still OK, in parallel over elements."""
-    no_times = np.empty(0)
-    no_hist = np.empty((0, N_HISTORY))
+    no_segments = np.empty((0, N_SEGMENT))
     for i in prange(params.shape[0]):
         if status[i] == ST_OK:
             status[i] = solve_contact(params[i], y0[i], scale[i], h_max[i], t_max[i], rtol, atol,
-                                      max_steps, no_times, no_hist, res[i])
+                                      max_steps, no_segments, res[i])

@@ -1,0 +1,237 @@
+"""The one way into the forward model: :class:`BounceModel`.
+
+Everything that needs batched bounces goes through it: :func:`simulate` (full results for
+broadcast arguments), the likelihoods of ``bouncebayes.inference`` (rebounds for many parameter
+rows under fixed incidence conditions, called thousands of times), the (mu, eta) grid of the
+Gaussian likelihood, and the propagation of posteriors. Each element is solved by the closed
+form where it is exact and by the ODE solver elsewhere; both write into the same output
+layout (``_outputs``), where velocities become speed and angle in one function.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Literal
+
+import numpy as np
+
+from .._validate import check_choice
+from . import _fast
+from ._arrays import (I_E, I_ETA, I_MU, I_SPIN, Inputs, ball_constants, explain_invalid,
+                      input_bounds, prepare)
+from ._config import PAPER_BALL, STANDARD_GRAVITY, Ball, SolverConfig, check_normal_law
+from ._ode import solve_rows
+from ._outputs import N_OUT, N_REBOUND, store_ode, store_ode_rebound
+from ._results import Bounces, Rebounds, SimulationWarning
+
+Errors = Literal["raise", "flag"]
+Method = Literal["auto", "ode"]
+#: Inputs that may vary per parameter row, and their input index.
+VARYING = {"mu": I_MU, "eta": I_ETA, "youngs_modulus": I_E, "spin": I_SPIN}
+
+
+class BounceModel:
+    """Bounces of ``ball`` under a batch of conditions (all arguments broadcast together).
+
+    Arguments are those of :func:`simulate`; ``mu`` and ``eta`` may be left out when they are
+    in ``varying``: the names of the inputs (of ``mu``, ``eta``, ``youngs_modulus``, ``spin``)
+    that calls give per parameter row, in the column order of ``theta``.
+
+    - ``model(theta)``: rebounds (speed, angle, spin, contact time, rolling, status) of every
+      parameter row of ``theta`` (shape (n, len(varying))) under every condition, arrays of
+      shape (n, *conditions); built for samplers (one compiled call, the normal impact of each
+      condition prepared once). Parameter values outside their domain get ``INVALID_INPUT``.
+    - ``model.bounces(theta=None)``: every result (:class:`Bounces`) of the conditions, or of
+      every row of ``theta`` under every condition.
+    - ``model.gaussian_grid(...)``: summed Gaussian misfits of the rebounds on a (mu, eta) grid.
+    """
+
+    def __init__(self, ball: Ball = PAPER_BALL, *, speed, angle, mu=None, eta=None, spin=0.0,
+                 inclination=0.0, youngs_modulus=None, gravity=STANDARD_GRAVITY,
+                 normal_law: str = "kelvin-voigt", solver: SolverConfig | None = None,
+                 errors: Errors = "raise", varying: tuple[str, ...] = ()):
+        self.errors = check_choice("errors", errors, ("raise", "flag"))
+        self.normal_law = check_normal_law(normal_law)
+        self.varying = _check_varying(varying)
+        for name, value in (("mu", mu), ("eta", eta)):
+            if value is None and name not in self.varying:
+                raise ValueError(f"`{name}` is required (or name it in `varying`)")
+        self.ball = ball
+        self.solver = SolverConfig() if solver is None else solver
+        self.values = {"mu": 0.0 if mu is None else mu, "eta": 0.0 if eta is None else eta,
+                       "speed": speed, "angle": angle, "spin": spin, "inclination": inclination,
+                       "youngs_modulus": ball.youngs_modulus if youngs_modulus is None
+                       else youngs_modulus, "gravity": gravity}
+        self.bounds = input_bounds(self.normal_law)
+        self.inputs = prepare(ball_constants(ball), self.values, self.normal_law, self.bounds,
+                              self.solver.max_contact_time_factor)
+        self.shape = self.inputs.shape
+        self.n_conditions = self.inputs.size
+        self._cols = np.array([self.varying.index(n) if n in self.varying else -1
+                               for n in VARYING], dtype=np.int64)
+        self._tables = _tables(self.normal_law)
+        self._conditions: tuple[np.ndarray, np.ndarray] | None = None
+
+    # -- full results --------------------------------------------------------------------------
+
+    def bounces(self, theta=None, *, method: Method = "auto") -> Bounces:
+        """Every result of the conditions (``theta`` None) or of each parameter row of
+        ``theta`` under each condition (shape (n, *conditions))."""
+        check_choice("method", method, ("auto", "ode"))
+        values = self.values if theta is None else self._product(theta)
+        inputs = self.inputs if theta is None else prepare(
+            self.inputs.ball, values, self.normal_law, self.bounds,
+            self.solver.max_contact_time_factor)
+        n = inputs.size
+        out, status = np.empty((N_OUT, n)), np.empty(n, dtype=np.int8)
+        rolling, flags = np.empty(n, dtype=bool), np.empty((2, n), dtype=bool)
+        fallback = np.empty(n, dtype=np.int8)
+        n_invalid, n_fallback = _fast.bounces(
+            inputs.values, inputs.ball, inputs.bounds, method == "auto" and _tabled(self),
+            self._tables, out, status, rolling, flags, fallback)
+        if n_invalid and self.errors == "raise":
+            explain_invalid(values, self.normal_law)
+        if n_fallback:
+            rows = np.flatnonzero(fallback)
+            res, res_status = solve_rows(inputs, rows, self.solver)
+            store_ode(res, res_status, rows, self.ball.radius, out, status, rolling, flags)
+        result = Bounces.from_block(out, status, rolling, flags, inputs.shape)
+        if self.errors == "raise" and result.n_failed:
+            warnings.warn(f"{result.n_failed} of {n} bounces could not be solved: "
+                          f"{result.failure_summary()}", SimulationWarning, stacklevel=3)
+        return result
+
+    def _product(self, theta) -> dict:
+        """The inputs of every parameter row under every condition, as broadcastable arrays."""
+        theta = self._theta(theta)
+        lead = (theta.shape[0],) + (1,) * len(self.shape)
+        return {k: np.asarray(v, dtype=float)[None, ...] if k not in self.varying
+                else theta[:, self.varying.index(k)].reshape(lead)
+                for k, v in self.values.items()}
+
+    def _theta(self, theta) -> np.ndarray:
+        theta = np.ascontiguousarray(theta, dtype=np.float64)
+        if theta.ndim == 1:
+            theta = theta[None, :]
+        if theta.ndim != 2 or theta.shape[1] != len(self.varying) or not theta.flags.writeable:
+            if theta.ndim == 2 and theta.shape[1] == len(self.varying):
+                return theta.copy()  # a read-only array would compile another specialisation
+            raise ValueError(f"`theta` must have shape (n, {len(self.varying)}) for the "
+                             f"parameters {self.varying}; got {theta.shape}")
+        return theta
+
+    # -- rebounds for samplers -----------------------------------------------------------------
+
+    def __call__(self, theta) -> Rebounds:
+        """Rebounds of each parameter row of ``theta`` under each condition."""
+        theta = self._theta(theta)
+        cond, cond_rows = self._conditions or self._prepared_conditions()
+        n = theta.shape[0]
+        dims = (n, self.n_conditions)
+        out, status = np.empty((N_REBOUND,) + dims), np.empty(dims, dtype=np.int8)
+        rolling, ok = np.empty(dims, dtype=bool), np.empty(dims, dtype=bool)
+        fallback = np.empty(dims, dtype=bool)
+        main, _, x_max, gamma_max, kv = self._tables
+        if n * self.n_conditions <= _fast.SERIAL_MAX:
+            n_fallback = _fast.rebound_range(theta, self._cols, cond, cond_rows, self.inputs.ball,
+                                             self.bounds, main, x_max, gamma_max, kv, 0, n, out,
+                                             status, rolling, ok, fallback)
+        else:
+            n_fallback = _fast.rebound_parallel(theta, self._cols, cond, cond_rows,
+                                                self.inputs.ball, self.bounds, main, x_max,
+                                                gamma_max, kv, out, status, rolling, ok,
+                                                fallback)
+        if n_fallback:
+            self._rebound_fallback(theta, np.flatnonzero(fallback), out.reshape(N_REBOUND, -1),
+                                   status.reshape(-1), rolling.reshape(-1), ok.reshape(-1))
+        if len(self.shape) != 1:
+            shape = (n,) + self.shape
+            out, status = out.reshape((N_REBOUND,) + shape), status.reshape(shape)
+            rolling, ok = rolling.reshape(shape), ok.reshape(shape)
+        return Rebounds(out[0], out[1], out[2], out[3], rolling, ok, status)
+
+    def prepare(self) -> BounceModel:
+        """Check the conditions (raising in ``errors="raise"`` mode) and prepare their normal
+        impacts for calls now rather than at the first call; returns the model."""
+        self._prepared_conditions()
+        return self
+
+    def _prepared_conditions(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._conditions is None:
+            if self.errors == "raise":
+                explain_invalid(self.values, self.normal_law)
+            main, _, _, gamma_max, kv = self._tables
+            nc = self.n_conditions
+            cond, cond_rows = np.empty((_fast.N_COND, nc)), np.empty((nc, 2 * _fast.NX))
+            _fast.prepare_conditions(self.inputs.values, self.inputs.ball, self.bounds, main,
+                                     gamma_max, kv, cond, cond_rows)
+            self._conditions = cond, cond_rows
+        return self._conditions
+
+    def _rebound_fallback(self, theta, idx, out, status, rolling, ok) -> None:
+        """The ODE for the elements the closed form handed back (flat indices ``idx``)."""
+        r, c = np.divmod(idx, self.n_conditions)
+        values = [v if v.size == 1 else np.ascontiguousarray(v[c]) for v in self.inputs.values]
+        for name, column in zip(self.varying, range(len(self.varying)), strict=True):
+            values[VARYING[name]] = np.ascontiguousarray(theta[r, column])
+        sub = Inputs(tuple(values), self.inputs.ball, self.inputs.law, (idx.size,), self.bounds,
+                     self.inputs.max_contact_time_factor)
+        res, res_status = solve_rows(sub, np.arange(idx.size), self.solver)
+        store_ode_rebound(res, res_status, idx, out, status, rolling, ok)
+
+    # -- the (mu, eta) grid of a Gaussian misfit ------------------------------------------------
+
+    def gaussian_grid(self, mu, eta, *, speed, angle, inverse_covariance,
+                      log_norm) -> tuple[np.ndarray, np.ndarray]:
+        """Sum over the conditions of bivariate normal log densities of the rebound (speed,
+        angle) misfits against ``speed``, ``angle`` (one per condition), on the grid of ``mu``
+        x ``eta`` (other inputs at the conditions' values): (log density (n_mu, n_eta), cells
+        the closed form could not do, to be recomputed by a call of the model).
+
+        ``inverse_covariance``: (n_conditions, 3) entries (ss, sa, aa) of each inverse
+        covariance; ``log_norm``: each density's log normalising constant, subtracted.
+        The normal impact is computed once per (eta, condition), the friction outcome per mu.
+        """
+        cond, cond_rows = self._prepared_conditions()
+        mu = np.ascontiguousarray(mu, dtype=float)
+        eta = np.ascontiguousarray(eta, dtype=float)
+        out = np.empty((mu.size, eta.size))
+        bad = np.zeros((mu.size, eta.size), dtype=bool)
+        _, _, x_max, gamma_max, kv = self._tables
+        nc = self.n_conditions
+        speed, angle, log_norm = (np.ascontiguousarray(a, dtype=float).reshape(nc)
+                                  for a in (speed, angle, log_norm))
+        icov = np.ascontiguousarray(inverse_covariance, dtype=float).reshape(nc, 3)
+        _fast.gaussian_grid(mu, eta, cond, cond_rows, self.inputs.ball, self.bounds, x_max,
+                            gamma_max, kv, speed, angle, icov, log_norm, out, bad)
+        return out, bad
+
+
+def _check_varying(varying) -> tuple[str, ...]:
+    varying = tuple(varying)
+    unknown = [n for n in varying if n not in VARYING]
+    if unknown or len(set(varying)) != len(varying):
+        raise ValueError(f"`varying` must name distinct inputs among {tuple(VARYING)}; got "
+                         f"{varying}")
+    return varying
+
+
+def _tabled(model: BounceModel) -> bool:
+    return model.normal_law in _fast.DOMAIN
+
+
+def _tables(law: str):
+    """The closed-form tables of ``law``, or empty stand-ins (of the same array types) for a
+    law the closed form does not cover: every element then goes to the ODE solver."""
+    if law in _fast.DOMAIN:
+        return _fast.kernel_tables(law)
+    return (np.zeros((_fast.NG, 2 * _fast.NX)), np.zeros((1, _fast.NG, 1)), -1.0, -1.0, False)
+
+
+def ode_bounce(inputs: Inputs, res: np.ndarray, status: int, radius: float) -> Bounces:
+    """The :class:`Bounces` of one element from one ODE result (for histories)."""
+    out, st = np.empty((N_OUT, 1)), np.empty(1, dtype=np.int8)
+    rolling, flags = np.empty(1, dtype=bool), np.empty((2, 1), dtype=bool)
+    store_ode(res[None, :], np.array([status], dtype=np.int8), np.zeros(1, dtype=np.int64),
+              radius, out, st, rolling, flags)
+    return Bounces.from_block(out, st, rolling, flags, inputs.shape)
