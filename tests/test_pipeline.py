@@ -201,11 +201,17 @@ def test_every_format_carries_the_stamp_and_stays_readable(tmp_path, demo):
     assert not stamp(tmp_path / "report.html", record)
 
 
-def test_trajectory_files_are_not_stamped(tmp_path):
-    make_folder(tmp_path, {"trajectories/b1.csv": "t,x,y\n0,0,0\n", "summary.json": "{}"})
-    stamped = stamp_tree(tmp_path, provenance(inputs={}))
-    assert [p.name for p in stamped] == ["summary.json"]
-    assert (tmp_path / "trajectories" / "b1.csv").read_text() == "t,x,y\n0,0,0\n"
+def test_trajectory_files_are_stamped_and_still_read(tmp_path):
+    from bouncebayes.data import read_trajectory_table
+
+    make_folder(tmp_path, {"trajectories/b1.csv": "t,x,y\n0,0,0\n0.001,1,1\n",
+                           "summary.json": "{}"})
+    record = provenance(inputs={}, seed=5)
+    stamped = stamp_tree(tmp_path, record)
+    assert sorted(p.name for p in stamped) == ["b1.csv", "summary.json"]
+    traj = tmp_path / "trajectories" / "b1.csv"
+    assert read_provenance(traj) == record
+    assert read_trajectory_table(traj).columns["t"].tolist() == [0.0, 0.001]
 
 
 def test_every_file_of_a_run_carries_the_run_provenance(small_run):
