@@ -32,14 +32,15 @@ import pytest
 from scipy.special import logsumexp
 
 import bouncebayes as bb
-import bouncebayes.inference._infer as infer_module
+import bouncebayes.inference._outputs as outputs_module
 from bouncebayes.cli import main
 from bouncebayes.data import demo_campaign, load_trials, make_trials, parse_experiment, synthesize
-from bouncebayes.inference import LogPosterior, SamplerConfig, format_table, infer, write_outputs
+from bouncebayes.inference import (EnsembleConfig, GridConfig, LogPosterior, MHConfig,
+                                   format_table, infer, write_outputs)
 from bouncebayes.inference._forward import Forward
 from bouncebayes.inference._grid_kernel import gaussian_grid
 from bouncebayes.inference._likelihood import make_likelihood
-from bouncebayes.inference._summary import (diagnostics, import_arviz, marginal_modes,
+from bouncebayes.inference._summary import (diagnostics, marginal_modes,
                                             summarize_parameter, warnings_for)
 
 DEMO = demo_campaign()
@@ -72,9 +73,9 @@ def by_name(result, name):
 
 def grid_moments(result):
     """Exact mean and sd of each parameter from the normalised grid density (no Monte Carlo)."""
-    grid = result.draws.info["grid"]
-    density = grid["density"]
-    centres = [np.asarray(c) for c in grid["centres"]]
+    grid = result.draws.info.grid
+    density = grid.density
+    centres = [np.asarray(c) for c in grid.centres]
     cell = float(np.prod([c[1] - c[0] for c in centres]))
     out = {}
     for i, name in enumerate(result.names):
@@ -97,7 +98,7 @@ def paper():
 @pytest.fixture(scope="module")
 def paper_grid(paper):
     exp, c = paper
-    return infer(exp, c.trials, sampler="grid", seed=1, config=SamplerConfig(draws=4000))
+    return infer(exp, c.trials, sampler="grid", seed=1, config=GridConfig(draws=4000))
 
 
 # --------------------------------------------------------------------------- recovery
@@ -109,7 +110,7 @@ def test_gaussian_interval_covers_the_truth_in_the_sliding_regime(truth, angle, 
                      incidence__angle_deg=angle)
     c = campaign(exp, seed)
     assert c.truth["share_rolling"] == 0.0
-    result = infer(exp, c.trials, sampler="grid", seed=2, config=SamplerConfig(draws=4000))
+    result = infer(exp, c.trials, sampler="grid", seed=2, config=GridConfig(draws=4000))
     for name, value in truth.items():
         p = by_name(result, name)
         assert covers(p, value), (name, p.ci90, value)
@@ -125,7 +126,7 @@ def test_gaussian_posterior_narrows_like_one_over_sqrt_n():
     sd = {}
     for n in (40, 160):
         r = infer(exp, campaign(exp, seed=7, n=n).trials, sampler="grid",
-                  config=SamplerConfig(draws=500, grid_points=384))
+                  config=GridConfig(draws=500, points=384))
         sd[n] = grid_moments(r)
     for name in ("mu", "eta"):
         assert sd[40][name][1] / sd[160][name][1] == pytest.approx(2.0, rel=0.25)
@@ -136,7 +137,7 @@ def spread_results():
     """kde and consistent posteriors (grid) and the gaussian one, on the demo table."""
     exp = experiment()
     trials = load_trials(DEMO.trials, exp)
-    config = SamplerConfig(draws=4000, grid_points=256)
+    config = GridConfig(draws=4000, points=256)
     return {lk: infer(exp, trials, likelihood=lk, sampler="grid", seed=3, config=config)
             for lk in ("kde", "consistent", "gaussian")}
 
@@ -181,10 +182,9 @@ def test_mh_ensemble_and_grid_means_agree(paper, paper_grid):
     # Monte Carlo error of a mean with ESS >= 1000 is <= 0.03 sd, so 0.1 sd is > 3 sigma.
     exp, c = paper
     exact = grid_moments(paper_grid)
-    mh = infer(exp, c.trials, sampler="mh", seed=4, config=SamplerConfig(draws=6000))
+    mh = infer(exp, c.trials, sampler="mh", seed=4, config=MHConfig(draws=6000))
     ens = infer(exp, c.trials, sampler="ensemble", seed=4,
-                config=SamplerConfig(draws=20000, walkers=32, ensemble_burn_in=200,
-                                     ensemble_thin=1))
+                config=EnsembleConfig(draws=20000, walkers=32, burn_in=200, thin=1))
     for result in (mh, ens, paper_grid):
         for name, (mean, sd) in exact.items():
             x = result.samples(name)
@@ -209,9 +209,9 @@ def small_table():
                                 if np.all(np.isfinite(v))})
 
 
-SMALL = {"mh": SamplerConfig(draws=400, burn_in=50),
-         "ensemble": SamplerConfig(draws=400, walkers=8, ensemble_burn_in=50),
-         "grid": SamplerConfig(draws=400, grid_points=64)}
+SMALL = {"mh": MHConfig(draws=400, burn_in=50),
+         "ensemble": EnsembleConfig(draws=400, walkers=8, burn_in=50),
+         "grid": GridConfig(draws=400, points=64)}
 
 
 def _numbers(result) -> dict:
@@ -247,7 +247,7 @@ def test_rolling_campaign_bounds_mu_from_below_and_still_identifies_eta():
     exp = experiment(contact__mu=0.4, incidence__angle_deg=20.0)
     c = campaign(exp, seed=31)
     assert c.truth["share_rolling"] == 1.0
-    result = infer(exp, c.trials, sampler="grid", seed=5, config=SamplerConfig(draws=4000))
+    result = infer(exp, c.trials, sampler="grid", seed=5, config=GridConfig(draws=4000))
     mu, eta = by_name(result, "mu"), by_name(result, "eta")
     assert not mu.identifiable
     assert mu.bound["side"] == "lower" and mu.bound["level"] == 0.95
@@ -268,16 +268,16 @@ def test_grid_density_is_normalised_and_the_evidence_converges():
     # 6 bounces: a broad posterior, so the midpoint rule converges visibly with the spacing
     exp = experiment()
     trials = campaign(exp, seed=61, n=6).trials
-    runs = {n: infer(exp, trials, sampler="grid", config=SamplerConfig(draws=200, grid_points=n))
+    runs = {n: infer(exp, trials, sampler="grid", config=GridConfig(draws=200, points=n))
             for n in (128, 256)}
     for n, r in runs.items():
-        grid = r.draws.info["grid"]
-        cell = np.prod([c[1] - c[0] for c in grid["centres"]])
-        assert grid["density"].shape == (n, n)
-        assert grid["density"].sum() * cell == pytest.approx(1.0, abs=1e-12)
-        assert math.isfinite(r.draws.info["log_evidence"])
-    assert runs[128].draws.info["log_evidence"] == pytest.approx(
-        runs[256].draws.info["log_evidence"], abs=1e-3)
+        grid = r.draws.info.grid
+        cell = np.prod([c[1] - c[0] for c in grid.centres])
+        assert grid.density.shape == (n, n)
+        assert grid.density.sum() * cell == pytest.approx(1.0, abs=1e-12)
+        assert math.isfinite(r.draws.info.log_evidence)
+    assert runs[128].draws.info.log_evidence == pytest.approx(
+        runs[256].draws.info.log_evidence, abs=1e-3)
 
 
 @pytest.mark.parametrize("order, eta_high", [(("mu", "eta"), 5.0), (("eta", "mu"), 5.0),
@@ -291,14 +291,14 @@ def test_structured_grid_equals_the_generic_posterior(order, eta_high, small_tab
     doc["parameters"]["eta"]["high"] = eta_high
     doc["parameters"] = {k: doc["parameters"][k] for k in order}
     exp = parse_experiment(doc)
-    result = infer(exp, trials, sampler="grid", config=SamplerConfig(draws=200, grid_points=24))
+    result = infer(exp, trials, sampler="grid", config=GridConfig(draws=200, points=24))
     assert result.names == order
     post = result.posterior
-    centres = [np.asarray(c) for c in result.draws.info["grid"]["centres"]]
+    centres = [np.asarray(c) for c in result.draws.info.grid.centres]
     mesh = np.stack(np.meshgrid(*centres, indexing="ij"), axis=-1).reshape(-1, 2)
     generic = post(mesh)
     density = np.exp(generic - logsumexp(generic)) / np.prod([c[1] - c[0] for c in centres])
-    np.testing.assert_allclose(result.draws.info["grid"]["density"].ravel(), density,
+    np.testing.assert_allclose(result.draws.info.grid.density.ravel(), density,
                                rtol=1e-9, atol=1e-12)
     # the kernel on the whole prior box (the sampler's grid is zoomed onto the posterior)
     box = post.box()
@@ -321,20 +321,20 @@ def test_prior_bound_cutting_into_the_posterior_is_reported():
     # the demo's posterior of mu is 0.159 +- 0.0015; an upper bound at 0.157 cuts it
     exp = experiment(parameters__mu={"prior": "uniform", "low": 0.0, "high": 0.157})
     result = infer(exp, load_trials(DEMO.trials, exp), sampler="grid",
-                   config=SamplerConfig(draws=4000))
+                   config=GridConfig(draws=4000))
     piles = [w for w in result.warnings if "piles against it" in w]
     assert len(piles) == 1
     assert piles[0].startswith("mu: ") and "upper bound (0.157)" in piles[0]
     # the reference run with the paper's prior has no such warning
     wide = infer(experiment(), load_trials(DEMO.trials, experiment()), sampler="grid",
-                 config=SamplerConfig(draws=4000))
+                 config=GridConfig(draws=4000))
     assert not any("piles against it" in w for w in wide.warnings)
 
 
 def test_a_tiny_mcmc_run_is_flagged(small_table):
     exp, trials = small_table
     result = infer(exp, trials, sampler="mh", seed=9,
-                   config=SamplerConfig(draws=200, burn_in=0, thin=1))
+                   config=MHConfig(draws=200, burn_in=0, thin=1))
     text = "\n".join(result.warnings)
     assert "effective draws (< 400)" in text  # 200 draws cannot hold 400 effective ones
     assert any("the chains disagree (R-hat" in w for w in result.warnings)
@@ -360,7 +360,7 @@ def test_a_bimodal_marginal_is_a_warning():
     samples = x.reshape(4, 1000, 1)  # four chains, each half in one mode: R-hat is fine
     prior = bb.data.Uniform(0.0, 0.5)
     s = summarize_parameter("mu", "", prior, x, diagnostics(samples, ("mu",))["mu"])
-    text = warnings_for([s], samples, [prior], "grid")
+    text = warnings_for([s], samples, [prior])
     assert any("the posterior has 2 modes" in w for w in text)
 
 
@@ -373,7 +373,7 @@ def test_noise_levels_are_inferred_without_standard_errors():
     t = c.trials
     trials = make_trials(exp, rebound_speed=t.rebound_speed, rebound_angle=t.rebound_angle,
                          incidence_speed=t.incidence_speed, incidence_angle=t.incidence_angle)
-    result = infer(exp, trials, sampler="mh", seed=6, config=SamplerConfig(draws=3000))
+    result = infer(exp, trials, sampler="mh", seed=6, config=MHConfig(draws=3000))
     assert result.names == ("mu", "eta", "sigma_speed", "sigma_angle")
     assert result.likelihood_info["noise"] == "inferred"
     noise = c.truth["measurement_noise"]
@@ -396,28 +396,92 @@ def demo_grid():
     exp = experiment()
     trials = load_trials(DEMO.trials, exp)
     return infer(exp, trials, sampler="grid", seed=12,
-                 config=SamplerConfig(draws=500, grid_points=128))
+                 config=GridConfig(draws=500, points=128))
 
 
 def test_posterior_netcdf_holds_draws_data_and_provenance(tmp_path, demo_grid):
+    import arviz_base
+    import xarray as xr
+
     paths = write_outputs(demo_grid, tmp_path)
     assert set(paths) == {"posterior", "summary", "grid"}
-    az = import_arviz()
-    idata = az.from_netcdf(str(tmp_path / "posterior.nc"))
-    assert {"posterior", "sample_stats", "observed_data"} <= set(idata.groups())
+    with xr.open_datatree(tmp_path / "posterior.nc") as opened:
+        assert {"posterior", "sample_stats", "observed_data", "log_likelihood",
+                "posterior_predictive"} <= set(opened.children)
+    idata = arviz_base.convert_to_datatree(str(tmp_path / "posterior.nc"))
     np.testing.assert_array_equal(idata.posterior["mu"].values, demo_grid.draws.samples[..., 0])
     np.testing.assert_array_equal(idata.observed_data["rebound_speed"].values,
                                   demo_grid.trials.rebound_speed)
     assert "lp" in idata.sample_stats
+    assert idata.log_likelihood["rebound"].shape == (1, 500, demo_grid.trials.n)
+    assert idata.posterior_predictive["rebound_speed"].dims == ("chain", "draw", "trial")
     attrs = idata.attrs
     assert int(attrs["seed"]) == 12
     assert attrs["likelihood"] == "gaussian" and attrs["sampler"] == "grid"
     assert attrs["bouncebayes_version"] == bb.__version__
     assert attrs["data_sha256"] == hashlib.sha256(DEMO.trials.read_bytes()).hexdigest()
+    assert json.loads(attrs["config"]) == {"draws": 500, "points": 128}
     with np.load(tmp_path / "grid.npz") as grid:
         cell = (grid["centres_0"][1] - grid["centres_0"][0]) * (grid["centres_1"][1]
                                                                 - grid["centres_1"][0])
         assert grid["density"].sum() * cell == pytest.approx(1.0, abs=1e-12)
+
+
+def test_pointwise_log_likelihood_is_each_trials_bivariate_normal(demo_grid):
+    # reference: scipy.stats.multivariate_normal with the likelihood's covariance (table
+    # standard errors + propagated incidence uncertainty), at the simulated rebound of each
+    # trial; the pointwise terms of a draw also sum to the likelihood the sampler used
+    from scipy import stats
+
+    like = demo_grid.posterior.likelihood
+    theta = demo_grid.draws.samples[0, :3]
+    r = like.forward(theta)
+    cov = like.propagated + np.einsum("ij,jk->ijk", like.rebound_var, np.eye(2))
+    for j in range(3):
+        expected = [stats.multivariate_normal(mean=[r.speed[j, k], r.angle[j, k]],
+                                              cov=cov[k]).logpdf([like.speed[k], like.angle[k]])
+                    for k in range(demo_grid.trials.n)]
+        np.testing.assert_allclose(demo_grid.log_likelihood[0, j], expected, rtol=1e-10)
+    np.testing.assert_allclose(demo_grid.log_likelihood[0, :3].sum(axis=1), like(theta),
+                               rtol=1e-12)
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning", "ignore::FutureWarning")
+def test_loo_and_compare_work_on_posterior_files(tmp_path, demo_grid):
+    # PSIS-LOO (Vehtari, Gelman & Gabry 2017) over the 55 trials: elpd_loo is at most the
+    # in-sample log predictive density (leaving a trial out cannot predict it better), and a
+    # model compared with itself differs by 0
+    import arviz_stats
+    import xarray as xr
+
+    write_outputs(demo_grid, tmp_path)
+    tree = xr.open_datatree(tmp_path / "posterior.nc").load()
+    loo = arviz_stats.loo(tree)
+    lppd = float(np.sum(logsumexp(demo_grid.log_likelihood[0], axis=0)
+                        - math.log(demo_grid.log_likelihood.shape[1])))
+    assert loo.n_data_points == demo_grid.trials.n
+    assert loo.elpd < lppd
+    table = arviz_stats.compare({"a": tree, "b": tree})
+    assert table["elpd_diff"].tolist() == [0.0, 0.0]
+
+
+def test_kde_log_likelihood_is_one_campaign_term(tmp_path):
+    # the kde likelihood is one density at one simulated rebound: one term per draw, stored
+    # as the observation `campaign`, and equal to the likelihood the sampler used
+    import xarray as xr
+
+    exp = experiment()
+    result = infer(exp, load_trials(DEMO.trials, exp), likelihood="kde", sampler="grid",
+                   seed=1, config=GridConfig(draws=200, points=32))
+    write_outputs(result, tmp_path)
+    with xr.open_datatree(tmp_path / "posterior.nc") as tree:
+        ll = tree["log_likelihood"]["rebound"]
+        assert ll.dims == ("chain", "draw", "campaign") and ll.shape == (1, 200, 1)
+        np.testing.assert_allclose(ll.values[0, :, 0], result.posterior.likelihood(
+            result.draws.samples[0]), rtol=1e-12)
+        assert "does not factor over trials" in tree.attrs["pointwise_log_likelihood"]
+        assert tree["posterior_predictive"]["rebound_speed"].dims == ("chain", "draw",
+                                                                      "campaign")
 
 
 def test_summary_json_has_the_documented_shape(tmp_path, demo_grid):
@@ -446,7 +510,7 @@ def test_a_failed_posterior_write_leaves_the_earlier_outputs(tmp_path, demo_grid
     def broken(result):
         raise OSError("disk full")
 
-    monkeypatch.setattr(infer_module, "inference_data", broken)
+    monkeypatch.setattr(outputs_module, "inference_data", broken)
     with pytest.raises(OSError, match="disk full"):
         write_outputs(dataclasses.replace(demo_grid, seed=99), tmp_path)
     assert _digests(tmp_path) == before  # no partial file, nothing replaced, no temporaries
@@ -473,7 +537,7 @@ def test_cli_infer_on_the_demo_matches_the_library(tmp_path, capsys):
     summary = json.loads((tmp_path / "summary.json").read_text(encoding="utf-8"))
     exp = experiment()
     lib = infer(exp, load_trials(DEMO.trials, exp), sampler="grid", seed=12,
-                config=SamplerConfig(draws=500, grid_points=128))
+                config=GridConfig(draws=500, points=128))
     assert summary["parameters"]["mu"]["mean"] == by_name(lib, "mu").mean
     assert summary["parameters"]["eta"]["ci90"] == list(by_name(lib, "eta").ci90)
 
@@ -561,7 +625,7 @@ def test_given_noise_needs_standard_errors():
 ])
 def test_sampler_config_checks_itself(field, value, message):
     with pytest.raises(ValueError, match=message):
-        SamplerConfig(**{field: value})
+        MHConfig(**{field: value})
 
 
 def test_likelihood_is_only_evaluated_inside_the_prior(small_table):

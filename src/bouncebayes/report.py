@@ -15,11 +15,9 @@ from ._errors import InputFileError
 from ._io import write_text
 from ._version import __version__
 from .data import load_experiment, load_trials
-from .inference import InferenceResult, LogPosterior, SamplerConfig
+from .inference import InferenceResult, load_inference
 from .inference._infer import SAMPLER_MEANINGS
-from .inference._likelihood import MEANINGS, noise_priors
-from .inference._samplers import Draws
-from .inference._summary import ParameterSummary, import_arviz
+from .inference._likelihood import MEANINGS
 
 EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
 
@@ -54,24 +52,7 @@ def load_result(folder: str | Path) -> InferenceResult:
     summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
     experiment = load_experiment(folder / EXPERIMENT_FILE)
     trials = load_trials(folder / TRIALS_FILE, experiment)
-    az = import_arviz()
-    idata = az.from_netcdf(str(folder / "posterior.nc"))
-    names = tuple(summary["parameters"])
-    samples = np.stack([idata.posterior[n].values for n in names], axis=-1)
-    stats = {k: idata.sample_stats[k].values for k in idata.sample_stats.data_vars}
-    extra = noise_priors(trials)
-    priors = tuple(experiment.priors[n] if n in experiment.priors else extra[n] for n in names)
-    units = tuple(p["unit"] for p in summary["parameters"].values())
-    params = tuple(ParameterSummary(**{k: (tuple(v) if k in ("ci90", "modes") else v)
-                                       for k, v in p.items() if k != "paper_form"})
-                   for p in summary["parameters"].values())
-    settings = {k: v for k, v in summary["sampler_settings"].items() if k != "result"}
-    return InferenceResult(experiment, trials, summary["likelihood"], summary["sampler"],
-                           summary["seed"], SamplerConfig(**settings),
-                           LogPosterior(names, priors, units, None),
-                           Draws(samples, stats, summary["sampler_settings"]["result"]), params,
-                           summary["regimes"], tuple(summary["warnings"]),
-                           summary["likelihood_details"], summary["seconds"])
+    return load_inference(folder / "posterior.nc", summary, experiment, trials)
 
 
 def load_truth(folder: str | Path) -> dict | None:
