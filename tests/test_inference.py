@@ -35,8 +35,8 @@ import bouncebayes as bb
 import bouncebayes.inference._outputs as outputs_module
 from bouncebayes.cli import main
 from bouncebayes.data import demo_campaign, load_trials, make_trials, parse_experiment, synthesize
-from bouncebayes.inference import (EnsembleConfig, GridConfig, LogPosterior, MHConfig,
-                                   format_table, infer, write_outputs)
+from bouncebayes.inference import (EnsembleConfig, GridConfig, LogPosterior, MemoryBudgetError,
+                                   MHConfig, format_table, infer, sampler_config, write_outputs)
 from bouncebayes.inference._forward import Forward
 from bouncebayes.inference._grid_kernel import gaussian_grid
 from bouncebayes.inference._likelihood import make_likelihood
@@ -643,3 +643,219 @@ def test_likelihood_is_only_evaluated_inside_the_prior(small_table):
     lp = post(np.array([[0.16, 1.35], [0.6, 1.35], [0.16, -1.0]]))
     assert np.isfinite(lp[0]) and np.all(np.isneginf(lp[1:]))
     assert len(calls) == 1 and np.array_equal(calls[0], [[0.16, 1.35]])
+
+
+# --------------------------------------------------------------------------- configs
+
+@pytest.mark.parametrize("make, error, message", [
+    (lambda: EnsembleConfig(walkers=2), ValueError, "`walkers` must be an integer >= 4; got 2"),
+    (lambda: GridConfig(points=7), ValueError, r"`points` must be an integer in \[8, 100000\]"),
+    (lambda: sampler_config("grid", draws=500, chains=4), ValueError,
+     "`chains` is not a setting of the grid sampler; GridConfig has draws, points"),
+])
+def test_each_sampler_config_checks_itself(make, error, message):
+    with pytest.raises(error, match=message):
+        make()
+
+
+def test_the_config_names_the_sampler_and_a_mismatch_is_refused(small_table):
+    exp, trials = small_table
+    result = infer(exp, trials, config=GridConfig(draws=200, points=16))
+    assert result.sampler == "grid" and result.config == GridConfig(draws=200, points=16)
+    assert sampler_config("mh", draws=400, chains=None) == MHConfig(draws=400)
+    with pytest.raises(TypeError, match="`config` must be a MHConfig for sampler='mh'; got "
+                                        "GridConfig"):
+        infer(exp, trials, sampler="mh", config=GridConfig())
+
+
+# --------------------------------------------------------------------------- (init, step)
+
+GAUSS_MEAN = np.array([1.0, -2.0])
+GAUSS_COV = np.array([[1.0, 0.6], [0.6, 2.0]])
+
+
+def gauss_logdensity(x):
+    z = np.atleast_2d(x) - GAUSS_MEAN
+    return -0.5 * np.einsum("ij,jk,ik->i", z, np.linalg.inv(GAUSS_COV), z)
+
+
+def test_mh_step_is_pure_and_samples_a_known_gaussian():
+    # target: a correlated bivariate normal (closed-form mean and covariance); 8 chains of
+    # 6000 steps with the optimal scale: Monte Carlo error of the mean ~ 0.05, 0.15 allowed
+    rng = np.random.default_rng(1)
+    chol = np.linalg.cholesky(GAUSS_COV) * 2.38 / math.sqrt(2)
+    state = bb.inference.mh_init(np.zeros((8, 2)), gauss_logdensity)
+    increment, log_u = rng.standard_normal((8, 2)) @ chol.T, np.log(rng.uniform(size=8))
+    before = [a.copy() for a in state]
+    a, info_a = bb.inference.mh_step(state, gauss_logdensity, increment, log_u)
+    b, info_b = bb.inference.mh_step(state, gauss_logdensity, increment, log_u)
+    assert all(np.array_equal(x, y) for x, y in zip(state, before, strict=True))  # unchanged
+    assert all(np.array_equal(x, y) for x, y in zip(a + info_a, b + info_b, strict=True))
+    kept = []
+    for _ in range(6000):
+        state, info = bb.inference.mh_step(state, gauss_logdensity,
+                                           rng.standard_normal((8, 2)) @ chol.T,
+                                           np.log(rng.uniform(size=8)))
+        kept.append(state.position)
+    x = np.concatenate(kept[1000:])
+    np.testing.assert_allclose(x.mean(axis=0), GAUSS_MEAN, atol=0.15)
+    np.testing.assert_allclose(np.cov(x.T), GAUSS_COV, rtol=0.15, atol=0.1)
+
+
+def test_ensemble_step_wraps_emcee_and_samples_a_known_gaussian():
+    # emcee's stretch move on the same closed-form target; the generator state travels in the
+    # state record, so a step repeated from the same state gives the same walkers
+    state = bb.inference.ensemble_init(
+        np.random.default_rng(2).normal(size=(16, 2)), gauss_logdensity, seed=3)
+    before = state.position.copy()
+    a, _ = bb.inference.ensemble_step(state, gauss_logdensity)
+    b, _ = bb.inference.ensemble_step(state, gauss_logdensity)
+    assert np.array_equal(state.position, before) and a.position is not b.position
+    assert np.array_equal(a.position, b.position) and not np.array_equal(a.position, before)
+    kept = []
+    for _ in range(3000):
+        state, info = bb.inference.ensemble_step(state, gauss_logdensity)
+        kept.append(state.position)
+    x = np.concatenate(kept[500:])
+    np.testing.assert_allclose(x.mean(axis=0), GAUSS_MEAN, atol=0.15)
+    np.testing.assert_allclose(np.cov(x.T), GAUSS_COV, rtol=0.15, atol=0.1)
+
+
+# --------------------------------------------------------------------------- memory
+
+def test_a_grid_that_cannot_fit_is_refused_up_front_with_the_estimate(small_table):
+    # 1e10 cells x 48 bytes (log posterior, weights, density, kernel output, resampling)
+    exp, trials = small_table
+    with pytest.raises(MemoryBudgetError, match=r"a grid of 100000 points per parameter in 2 "
+                                                r"parameters \(1e\+10 cells\) needs about "
+                                                r"447.0 GiB") as err:
+        infer(exp, trials, config=GridConfig(points=100000))
+    assert err.value.needed == 1e10 * 48 and err.value.budget == bb.inference.DEFAULT_MEMORY_BUDGET
+    with pytest.raises(MemoryBudgetError, match="lower `draws`"):
+        infer(exp, trials, config=MHConfig(draws=10**9))
+    with pytest.raises(ValueError, match=r"`memory_budget` must be at least 16777216 bytes"):
+        infer(exp, trials, memory_budget=1000)
+
+
+MEMORY_SCRIPT = """
+import json, sys
+import numpy as np
+from bouncebayes.data import demo_campaign, load_experiment, load_trials, make_trials
+from bouncebayes.inference import BYTES_PER_BOUNCE, MHConfig, infer
+from bouncebayes.inference._likelihood import make_likelihood
+
+def rss(key):
+    with open("/proc/self/status") as fh:
+        return next(int(l.split()[1]) * 1024 for l in fh if l.startswith(key))
+
+demo = demo_campaign()
+exp = load_experiment(demo.experiment)
+t = load_trials(demo.trials, exp)
+n, budget = int(sys.argv[1]), int(sys.argv[2])
+reps = -(-n // t.n)
+tile = lambda x: np.tile(x, reps)[:n]
+big = make_trials(exp, rebound_speed=tile(t.rebound_speed), rebound_angle=tile(t.rebound_angle),
+                  incidence_speed=tile(t.incidence_speed), incidence_angle=tile(t.incidence_angle),
+                  se={k: tile(v) for k, v in t.se.items() if np.all(np.isfinite(v))})
+config = MHConfig(draws=100, chains=2, burn_in=0, thin=1)
+infer(exp, t, config=config)  # compiled code loaded before anything is measured
+base = rss("VmRSS")  # the high-water mark only rises: the larger measurement last
+result = infer(exp, big, config=config, memory_budget=budget)
+growth = rss("VmHWM") - base
+like = make_likelihood("gaussian", exp, t, ("mu", "eta"), rng=np.random.default_rng(0))
+rows = 4 * max(1, growth // (BYTES_PER_BOUNCE * t.n))  # a call larger than the run's peak
+theta = np.column_stack([np.full(rows, 0.16), np.linspace(1.0, 2.0, rows)])
+like(theta[:10])
+base = rss("VmRSS")
+like(theta)
+per_bounce = (rss("VmHWM") - base) / (rows * t.n)
+print(json.dumps({"per_bounce": per_bounce, "planned": BYTES_PER_BOUNCE, "growth": growth,
+                  "mu": result.parameters[0].mean,
+                  "log_likelihood": list(result.log_likelihood.shape)}))
+"""
+
+
+def _memory_run(n: int, budget: int) -> dict:
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT, str(n), str(budget)],
+                         capture_output=True, text=True, check=True, timeout=900)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_a_large_table_runs_in_batches_within_the_memory_budget():
+    # 10,000 trials under a 48 MiB budget: one likelihood row (all trials) is planned at
+    # 10 MB, so the model is evaluated a row or two at a time. The resident-set growth of the
+    # run stays within the budget, and the planning constant bounds the measured working
+    # memory of one likelihood call (resident-set high-water mark of a call larger than the
+    # run's own peak, so that the mark is the call's)
+    run = _memory_run(10_000, 48 * 2**20)
+    assert run["per_bounce"] < run["planned"]
+    assert run["growth"] < 48 * 2**20
+    assert run["log_likelihood"] == [2, 50, 10_000]
+    assert run["mu"] == pytest.approx(0.159, abs=0.005)  # the demo's posterior mean
+
+
+@pytest.mark.slow
+def test_a_100000_row_table_runs_within_the_memory_budget():
+    run = _memory_run(100_000, 512 * 2**20)
+    assert run["growth"] < 512 * 2**20 * 1.1
+    assert run["mu"] == pytest.approx(0.159, abs=0.005)
+
+
+# --------------------------------------------------------------------------- what no sampler fixes
+
+def test_identical_rows_with_kde_name_the_file_and_the_column():
+    exp = experiment()
+    same = make_trials(exp, rebound_speed=np.full(10, 2.0), rebound_angle=np.full(10, 40.0),
+                       source="same.csv")
+    with pytest.raises(ValueError, match=r"^same.csv: every rebound_speed is 2 m/s: the kde "
+                                         r"likelihood estimates the density of the rebounds "
+                                         r"from their spread"):
+        infer(exp, same, likelihood="kde")
+
+
+@pytest.mark.parametrize("name", ["eta", "mu"])
+def test_an_absurdly_wide_prior_is_blamed_not_the_data(name):
+    exp = experiment(parameters__eta={"prior": "uniform", "low": 0.0, "high": 1e300}
+                     if name == "eta" else {"prior": "uniform", "low": 0.0, "high": 5.0},
+                     parameters__mu={"prior": "uniform", "low": 0.0, "high": 1e300}
+                     if name == "mu" else {"prior": "uniform", "low": 0.0, "high": 0.5})
+    with pytest.raises(ValueError, match=f"the prior of {name} reaches 1e\\+300") as err:
+        infer(exp, load_trials(DEMO.trials, exp))
+    assert "data" not in str(err.value)
+
+
+def test_a_prior_reaching_unphysical_values_says_the_ball_does_not_bounce(small_table):
+    # eta up to 1e60 kg/s: the ball stops on the surface at every point of the design
+    exp = experiment(parameters__eta={"prior": "uniform", "low": 0.0, "high": 1e60})
+    with pytest.raises(ValueError, match="the model gives no rebound for every bounce at any "
+                                         "point of a 1024-point design") as err:
+        infer(exp, small_table[1], config=MHConfig(draws=200))
+    assert "narrow them to the physical range" in str(err.value)
+    assert "reproduces the data" not in str(err.value)
+
+
+def _faster(exp, trials, rows, by=1.0):
+    speed = trials.rebound_speed.copy()
+    speed[rows] += by
+    return make_trials(exp, rebound_speed=speed, rebound_angle=trials.rebound_angle,
+                       incidence_speed=trials.incidence_speed,
+                       incidence_angle=trials.incidence_angle, source="faster.csv",
+                       se={k: v for k, v in trials.se.items() if np.all(np.isfinite(v))})
+
+
+def test_rebounds_faster_than_the_incidence_are_named_not_blamed_on_the_prior(small_table):
+    # energy: a passive contact cannot return more kinetic energy than arrived, so a rebound
+    # 1 m/s faster than a 3 m/s incidence is impossible for every parameter value
+    exp, trials = small_table
+    with pytest.raises(ValueError, match=r"^faster.csv: every bounce rebounds faster than it "
+                                         r"arrived \(trial 1: "):
+        infer(exp, _faster(exp, trials, slice(None)))
+    result = infer(exp, _faster(exp, trials, [2, 7]), config=GridConfig(draws=400, points=32))
+    assert result.warnings[0].startswith("2 of 12 bounces rebound faster than they arrived, "
+                                         "beyond their measurement error (trials 3, 8;")
+    assert not any("widen the prior" in w for w in result.warnings)
+    clean = infer(exp, trials, config=GridConfig(draws=400, points=32))
+    assert not any("faster than they arrived" in w for w in clean.warnings)

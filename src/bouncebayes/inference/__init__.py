@@ -28,6 +28,7 @@ from ._infer import load_inference as load_inference
 from ._likelihood import LIKELIHOODS as LIKELIHOODS
 from ._likelihood import MEANINGS as MEANINGS
 from ._likelihood import noise_priors as noise_priors
+from ._memory import BYTES_PER_BOUNCE as BYTES_PER_BOUNCE
 from ._memory import DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET
 from ._memory import MemoryBudgetError as MemoryBudgetError
 from ._mh import MHInfo as MHInfo
@@ -43,7 +44,7 @@ from ._summary import ParameterSummary as ParameterSummary
 from ._summary import marginal_modes as marginal_modes
 
 __all__ = [
-    "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_MEANINGS", "Draws",
+    "BYTES_PER_BOUNCE", "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_MEANINGS", "Draws",
     "EnsembleConfig", "EnsembleInfo", "EnsembleRun", "EnsembleState", "Forward", "GridConfig",
     "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",
     "MHState", "MemoryBudgetError", "ParameterSummary", "Replicates", "SamplerConfig",

@@ -56,8 +56,9 @@ def step(state: EnsembleState,
     model = emcee.model.Model(log_prob_fn=logdensity_fn,
                               compute_log_prob_fn=lambda q: (logdensity_fn(q), None),
                               map_fn=map, random=random)
+    # emcee's move updates the state it is given in place: hand it copies
     new, accepted = emcee.moves.StretchMove().propose(
-        model, emcee.State(state.position, log_prob=state.logdensity))
+        model, emcee.State(state.position.copy(), log_prob=state.logdensity.copy()))
     return (EnsembleState(new.coords, new.log_prob, random.get_state()),
             EnsembleInfo(accepted))
 

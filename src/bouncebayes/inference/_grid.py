@@ -12,7 +12,7 @@ from scipy.special import logsumexp
 
 from ._config import GridConfig
 from ._draws import Draws, floats
-from ._memory import DEFAULT_MEMORY_BUDGET, require
+from ._memory import require
 from ._mode import nowhere_message
 from ._posterior import LogPosterior
 
@@ -71,22 +71,23 @@ def grid_bytes(points: int, dim: int) -> float:
     return float(points) ** dim * GRID_BYTES_PER_CELL
 
 
-def check_grid_memory(points: int, dim: int, budget: int) -> None:
-    """Refuse a grid that cannot fit in the memory budget, naming the largest that can."""
-    most = int((budget / GRID_BYTES_PER_CELL) ** (1.0 / dim))
+def check_grid_memory(points: int, dim: int, budget: float, share: float = 1.0) -> None:
+    """Refuse a grid that cannot fit in ``share`` of the memory budget, naming the largest
+    that can."""
+    most = int((share * budget / GRID_BYTES_PER_CELL) ** (1.0 / dim))
     require(f"a grid of {points} points per parameter in {dim} parameters "
             f"({float(points) ** dim:.3g} cells)", grid_bytes(points, dim), budget,
-            f"use at most {most} `points` per parameter, or raise `memory_budget`")
+            f"use at most {most} `points` per parameter, or raise `memory_budget`", share)
 
 
 def sample_grid(post: LogPosterior, config: GridConfig, rng: np.random.Generator,
-                progress: bool = False, memory_budget: int = DEFAULT_MEMORY_BUDGET) -> Draws:
+                progress: bool = False) -> Draws:
     """Quadrature on a regular grid of cell centres over the prior box, zoomed onto the region
     where the posterior is within e^-30 of its maximum when that is much smaller (so that a
     narrow posterior is resolved; the mass left outside is below 1e-10); draws are resampled
-    from the cells with a uniform jitter inside each."""
+    from the cells with a uniform jitter inside each. Its memory (:func:`grid_bytes`) is
+    planned by the caller with :func:`check_grid_memory`."""
     n = config.points_for(post.dim)
-    check_grid_memory(n, post.dim, memory_budget)
     box = post.box(1e-6)
     for _ in range(ZOOM_PASSES):
         zoomed = _zoom(post, box, min(n, COARSE_POINTS[post.dim]))

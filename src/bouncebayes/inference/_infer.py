@@ -16,10 +16,10 @@ from ._checks import check_prior_ranges, data_warnings
 from ._config import (CONFIGS, SAMPLERS, AnyConfig, SamplerConfig, config_for, sampler_of)
 from ._draws import Draws
 from ._ensemble import EnsembleRun, sample_ensemble
-from ._grid import GridRun, check_grid_memory, sample_grid
+from ._grid import GridRun, check_grid_memory, grid_bytes, sample_grid
 from ._likelihood import LIKELIHOODS, MEANINGS, make_likelihood, noise_priors
-from ._memory import (BYTES_PER_BOUNCE, DEFAULT_MEMORY_BUDGET, WORK_SHARE, batch_rows,
-                      check_memory_budget, require)
+from ._memory import (BYTES_PER_BOUNCE, BYTES_PER_TRIAL, DEFAULT_MEMORY_BUDGET, RESIDENT_SHARE,
+                      batch_rows, check_memory_budget, require)
 from ._mh import MHRun, sample_mh
 from ._outputs import read_posterior
 from ._pass import PosteriorPass, Replicates, posterior_pass
@@ -122,19 +122,19 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str = "gaussian
     if not names:
         raise ValueError(f"{experiment.source}: no [parameters.NAME] table: nothing to infer")
     check_prior_ranges(experiment, names)
-    _plan(likelihood, sampler, config, len(names), trials, budget)
+    work = budget - _plan(likelihood, sampler, config, len(names), trials, budget)
     notes = data_warnings(experiment, trials)
     start = time.perf_counter()
     rng_likelihood, rng_sampler, rng_pass = np.random.default_rng(seed).spawn(3)
     like = make_likelihood(likelihood, experiment, trials, names, rng=rng_likelihood,
-                           noise=noise, memory_budget=budget)
-    post = _log_posterior(like, experiment, names, budget)
+                           noise=noise, memory_budget=work)
+    post = _log_posterior(like, experiment, names, work)
     if sampler == "grid":
-        draws = sample_grid(post, config, rng_sampler, progress, budget)
+        draws = sample_grid(post, config, rng_sampler, progress)
     else:
         run = sample_mh if sampler == "mh" else sample_ensemble
         draws = run(post, config, rng_sampler, progress)
-    checked = posterior_pass(like, draws, rng_pass, budget)
+    checked = posterior_pass(like, draws, rng_pass, work)
     params, warns = _summarize(post, draws, checked, notes, likelihood, trials)
     return InferenceResult(experiment, trials, likelihood, sampler, int(seed), config, post,
                            draws, params, checked.regimes, tuple(warns), like.describe(),
@@ -151,27 +151,33 @@ def _check_arguments(likelihood: str, sampler: str, noise: str, seed: Any) -> No
 
 
 def _plan(likelihood: str, sampler: str, config: Any, dim: int, trials: Trials,
-          budget: int) -> None:
-    """Refuse up front what cannot fit in the memory budget."""
+          budget: int) -> float:
+    """Bytes held through the run (the table, the draws, a grid); refuse up front what cannot
+    fit: these beyond half the budget, or one likelihood evaluation beyond the rest."""
+    if sampler == "grid":
+        check_grid_memory(config.points_for(dim), dim, budget, RESIDENT_SHARE)
+    kept = config.draws + (config.chains if sampler == "mh" else 0)
+    draws = kept * (dim + 4) * 8.0
+    require(f"keeping {config.draws} draws of {dim} or more parameters", draws, budget,
+            "lower `draws`, or raise `memory_budget`", RESIDENT_SHARE)
+    resident = (trials.n * BYTES_PER_TRIAL + draws
+                + (grid_bytes(config.points_for(dim), dim) if sampler == "grid" else 0.0))
+    require(f"holding {trials.n} trials, the draws and the grid through the run", resident,
+            budget, "raise `memory_budget`, or split the table", RESIDENT_SHARE)
     if likelihood == "gaussian":
         require(f"one evaluation of the gaussian likelihood ({trials.n} trials, each simulated "
-                f"at its own incidence)", trials.n * BYTES_PER_BOUNCE, budget,
+                f"at its own incidence)", trials.n * BYTES_PER_BOUNCE, budget - resident,
                 "raise `memory_budget`, or split the table")
-    if sampler == "grid":
-        check_grid_memory(config.points_for(dim), dim, budget)
-    kept = config.draws + (config.chains if sampler == "mh" else 0)
-    require(f"keeping {config.draws} draws of {dim} or more parameters",
-            kept * (dim + 4) * 8.0 / WORK_SHARE, budget,
-            "lower `draws`, or raise `memory_budget`")
+    return resident
 
 
-def _log_posterior(like, experiment: Experiment, names, budget: int) -> LogPosterior:
+def _log_posterior(like, experiment: Experiment, names, work: float) -> LogPosterior:
     """Prior of the model parameters and of the likelihood's own (noise levels)."""
     extra = like.extra_parameters
     return LogPosterior(tuple(names) + tuple(e[0] for e in extra),
                         tuple(experiment.priors[n] for n in names) + tuple(e[1] for e in extra),
                         tuple(experiment.unit(n) for n in names) + tuple(e[2] for e in extra),
-                        like, batch_rows(budget, like.bytes_per_row))
+                        like, batch_rows(work, like.bytes_per_row))
 
 
 def _summarize(post: LogPosterior, draws: Draws, checked: PosteriorPass, notes: list[str],

@@ -1,14 +1,17 @@
-"""Compiled terms of the gaussian likelihood: one pass over (rows, trials), no temporaries.
+"""Compiled inner loops of the samplers: the gaussian likelihood's terms (one pass over
+(rows, trials), no temporaries), the prior's box, and Metropolis–Hastings proposal and accept.
 
-Samplers evaluate the likelihood thousands of times on a few rows of 55 trials each, where a
-chain of NumPy expressions costs more in per-call overhead and temporaries than in arithmetic;
-these loops do the bivariate normal log-density of every residual in one call.
+Samplers evaluate the posterior thousands of times on a few rows (one per chain) of 55 trials
+each. There a chain of NumPy expressions costs far more in per-call overhead (about a
+microsecond per operation) than in arithmetic, so each of these does in one call what would
+take several NumPy operations.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 LOG_2PI = math.log(2.0 * math.pi)
@@ -83,3 +86,57 @@ def inferred_noise_sum(speed, angle, ok, obs_speed, obs_angle, p00, p01, p11, si
             total += _term(speed[r, k], angle[r, k], obs_speed[k], obs_angle[k], i00, i01,
                            i11, log_norm)
         out[r] = total if total == total else -math.inf
+
+
+@njit(cache=True)
+def box_log_prior(theta, lower, upper, constant, out):
+    """``out[r]`` = ``constant`` where row r of ``theta`` lies in the box, else ``-inf``;
+    returns the number of rows inside."""
+    inside = 0
+    for r in range(theta.shape[0]):
+        value = constant
+        for j in range(theta.shape[1]):
+            x = theta[r, j]
+            if not (lower[j] <= x <= upper[j]):
+                value = -math.inf
+                break
+        out[r] = value
+        inside += value > -math.inf
+    return inside
+
+
+@njit(cache=True)
+def add_log_densities(a, b, out):
+    """``out = a + b`` with anything that is not a number (``-inf + inf``) set to ``-inf``."""
+    for r in range(a.shape[0]):
+        s = a[r] + b[r]
+        out[r] = s if s == s else -math.inf
+
+
+@njit(cache=True)
+def mh_propose(position, increment, log_scale):
+    """Random-walk proposals ``position + exp(log_scale) * increment``, row by row."""
+    out = np.empty_like(position)
+    for c in range(position.shape[0]):
+        scale = math.exp(log_scale[c])
+        for j in range(position.shape[1]):
+            out[c, j] = position[c, j] + scale * increment[c, j]
+    return out
+
+
+@njit(cache=True)
+def mh_accept(position, logdensity, proposal, lp, log_u):
+    """Metropolis acceptance of every chain: new positions and log densities, which chains
+    accepted (``log_u < lp - logdensity``) and the log ratios."""
+    new_position = position.copy()
+    new_logdensity = logdensity.copy()
+    accepted = np.zeros(position.shape[0], dtype=np.bool_)
+    log_ratio = np.empty(position.shape[0])
+    for c in range(position.shape[0]):
+        log_ratio[c] = lp[c] - logdensity[c]
+        if log_u[c] < log_ratio[c]:
+            accepted[c] = True
+            new_logdensity[c] = lp[c]
+            for j in range(position.shape[1]):
+                new_position[c, j] = proposal[c, j]
+    return new_position, new_logdensity, accepted, log_ratio

@@ -26,7 +26,7 @@ them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal, NamedTuple, get_args
 
 import numpy as np
@@ -116,6 +116,10 @@ class _AtNominal:
         """No exact fast grid for this likelihood."""
         return None
 
+    def subset(self, most: int):
+        """Itself: the likelihood is evaluated at one incidence."""
+        return self
+
 
 @dataclass(frozen=True)
 class KDELikelihood(_AtNominal):
@@ -167,6 +171,7 @@ class GaussianLikelihood:
     jacobian_at: dict = field(default_factory=dict)
     observations: tuple[str, ...] = ()  #: trial labels
     extra_parameters: tuple[tuple[str, Prior, str], ...] = ()  #: (name, prior, unit)
+    incidence: np.ndarray | None = None  #: (n, 3) incident speed, angle, spin per trial
     name: str = "gaussian"
     _terms: tuple[np.ndarray, ...] = field(init=False, repr=False, compare=False)
 
@@ -192,7 +197,8 @@ class GaussianLikelihood:
         return float(self.forward.n_conditions * BYTES_PER_BOUNCE)
 
     def _model(self, theta: np.ndarray):
-        theta = np.atleast_2d(theta)
+        theta = np.asarray(theta, dtype=float)
+        theta = theta[None, :] if theta.ndim == 1 else theta
         d = len(self.forward.names)
         return theta, self.forward(theta if theta.shape[1] == d else theta[:, :d])
 
@@ -239,6 +245,20 @@ class GaussianLikelihood:
         z = rng.standard_normal((2,) + rebounds.speed.shape)
         return rebounds.speed + l00 * z[0], rebounds.angle + l10 * z[0] + l11 * z[1]
 
+    def subset(self, most: int) -> GaussianLikelihood:
+        """The likelihood of at most ``most`` evenly spaced trials (itself when it has no
+        more): a cheap stand-in where only the location of the mode matters."""
+        n = self.speed.size
+        if n <= most or self.incidence is None:
+            return self
+        pick = np.unique(np.linspace(0, n - 1, most).round().astype(int))
+        inc = self.incidence[pick]
+        forward = Forward(self.forward.experiment, self.forward.names, speed=inc[:, 0],
+                          angle=inc[:, 1], spin=inc[:, 2])
+        return replace(self, forward=forward, speed=self.speed[pick], angle=self.angle[pick],
+                       rebound_var=self.rebound_var[pick], propagated=self.propagated[pick],
+                       observations=tuple(self.observations[i] for i in pick), incidence=inc)
+
     def structured_grid(self, names: tuple[str, ...], axes) -> tuple[np.ndarray,
                                                                       np.ndarray] | None:
         """Log-likelihood on the (mu, eta) mesh of ``axes`` (in ``names`` order) without
@@ -271,7 +291,8 @@ def noise_priors(trials: Trials) -> dict[str, Prior]:
         x = trials.column(column)
         spread = float(np.std(x, ddof=1)) if x.size > 1 else 0.0
         if not spread > 0:
-            raise ValueError(f"{trials.source}: every {column} is {x[0]:g}: a noise level "
+            raise ValueError(f"{trials.source}: every {column} is {x[0]:g} "
+                             f"{NOISE_UNITS[name]}: a noise level "
                              f"cannot be inferred from bounces without spread; give standard "
                              f"errors ({column}_se) and use noise='given'")
         out[name] = LogUniform(1e-3 * spread, 10.0 * spread)
@@ -282,8 +303,9 @@ def make_likelihood(name: str, experiment: Experiment, trials: Trials, names: tu
                     *, rng: np.random.Generator, noise: str = "auto",
                     bandwidth="normal-reference", density_kind: Any = "auto",
                     n_predicted: int = 4000,
-                    memory_budget: int = DEFAULT_MEMORY_BUDGET) -> Likelihood:
-    """Build the named likelihood for the inferred parameters ``names`` (model parameters)."""
+                    memory_budget: float = DEFAULT_MEMORY_BUDGET) -> Likelihood:
+    """Build the named likelihood for the inferred parameters ``names`` (model parameters);
+    ``memory_budget``: bytes its preparation may use for model evaluations at once."""
     if name in ("kde", "consistent"):
         _check_spread(trials, name)
         speed, angle, spin = _nominal(experiment)
@@ -327,7 +349,7 @@ def _consistent(forward, observed, experiment, names, rng, n):
 
 
 def _gaussian(experiment: Experiment, trials: Trials, names, noise: str,
-              budget: int) -> GaussianLikelihood:
+              budget: float) -> GaussianLikelihood:
     se = np.column_stack([trials.se["rebound_speed"], trials.se["rebound_angle"]])
     if noise == "auto":
         noise = "given" if np.all(np.isfinite(se)) and np.all(se > 0) else "inferred"
@@ -346,7 +368,9 @@ def _gaussian(experiment: Experiment, trials: Trials, names, noise: str,
     return GaussianLikelihood(forward, np.asarray(trials.rebound_speed),
                               np.asarray(trials.rebound_angle), noise,
                               se**2 if noise == "given" else np.zeros_like(se), propagated,
-                              dict(zip(names, at.tolist(), strict=True)), trials.labels, extra)
+                              dict(zip(names, at.tolist(), strict=True)), trials.labels, extra,
+                              np.column_stack([trials.incidence_speed, trials.incidence_angle,
+                                               trials.incidence_spin]).astype(float))
 
 
 def _incidence_variance(experiment: Experiment, trials: Trials) -> np.ndarray:

@@ -1,9 +1,11 @@
 """Memory planning: how much an inference may hold at once, checked before it is allocated.
 
-An inference holds arrays of three kinds: the model evaluations of one batch of parameter rows
-(bounded by splitting large batches), the draws and their per-trial log-likelihoods (refused up
-front, or left out, when they cannot fit), and the grid of the grid sampler (refused up front).
-The budget is an argument of :func:`~bouncebayes.inference.infer`, ``memory_budget`` in bytes.
+An inference holds what lives through the run (the trial table and the likelihood's arrays per
+trial, the draws, the grid of the grid sampler: refused up front when they take more than half
+the budget), the per-trial log-likelihoods of the draws (left out, with a warning, when they do
+not fit in half of what remains) and the model evaluations of one batch of parameter rows
+(batches are split to fit the rest). The budget is an argument of
+:func:`~bouncebayes.inference.infer`, ``memory_budget`` in bytes.
 """
 
 from __future__ import annotations
@@ -17,17 +19,27 @@ MIN_MEMORY_BUDGET = 16 * 2**20
 #: 2.2-million-bounce call); the planning value keeps a margin of more than two, and
 #: tests/test_inference.py checks the measured value against it.
 BYTES_PER_BOUNCE = 1024
-WORK_SHARE = 0.5  #: share of the budget that one batch of model evaluations may use
+#: Memory held per trial through a run: the table's columns and standard errors, the
+#: likelihood's observations, covariances and inverses, the model's prepared conditions.
+BYTES_PER_TRIAL = 512
+RESIDENT_SHARE = 0.5  #: share of the budget for what lives through the run
+#: share of the remaining budget that one batch of model evaluations plans to use: the rest is
+#: margin for what the planning does not count (the model's caches, the allocator's slack)
+WORK_SHARE = 0.5
 
 
 class MemoryBudgetError(ValueError):
-    """A request that cannot fit in the memory budget; ``needed`` and ``budget`` in bytes."""
+    """A request that cannot fit in the memory budget; ``needed`` and ``budget`` in bytes
+    (``share``: the part of the budget this kind of request may use)."""
 
-    def __init__(self, what: str, needed: float, budget: int, remedy: str):
+    def __init__(self, what: str, needed: float, budget: float, remedy: str,
+                 share: float = 1.0):
         self.needed = float(needed)
-        self.budget = int(budget)
+        self.budget = float(budget)
+        part = "" if share == 1.0 else f", of which {100 * share:.0f} % may hold it"
         super().__init__(f"{what} needs about {format_bytes(needed)}, more than the memory "
-                         f"budget (`memory_budget` = {format_bytes(budget)}); {remedy}")
+                         f"budget allows (`memory_budget` = {format_bytes(budget)}{part}); "
+                         f"{remedy}")
 
 
 def format_bytes(n: float) -> str:
@@ -49,12 +61,14 @@ def check_memory_budget(value: object) -> int:
     return int(value)
 
 
-def batch_rows(budget: int, bytes_per_row: float) -> int:
-    """Most parameter rows one model evaluation may take within the budget (at least 1)."""
-    return max(1, int(WORK_SHARE * budget // max(bytes_per_row, 1.0)))
+def batch_rows(work: float, bytes_per_row: float) -> int:
+    """Most parameter rows one model evaluation may take within ``work`` bytes (at least 1;
+    WORK_SHARE of them planned)."""
+    return max(1, int(WORK_SHARE * work // max(bytes_per_row, 1.0)))
 
 
-def require(what: str, needed: float, budget: int, remedy: str) -> None:
-    """Refuse (:class:`MemoryBudgetError`) when ``needed`` bytes exceed the budget."""
-    if needed > budget:
-        raise MemoryBudgetError(what, needed, budget, remedy)
+def require(what: str, needed: float, budget: float, remedy: str, share: float = 1.0) -> None:
+    """Refuse (:class:`MemoryBudgetError`) when ``needed`` bytes exceed ``share`` of the
+    budget."""
+    if needed > share * budget:
+        raise MemoryBudgetError(what, needed, budget, remedy, share)

@@ -15,11 +15,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from . import _kernels as _kernel_module
 from ._config import MHConfig
 from ._draws import ESS_LIMIT, RHAT_LIMIT, Draws, ess_warnings, floats
 from ._mode import dispersed_starts, find_mode
 from ._posterior import LogPosterior
 
+_kernels: Any = _kernel_module  # numba dispatchers: mypy cannot see their signatures
 RANDOM_BLOCK = 1024  #: iterations whose random inputs are drawn at once
 
 
@@ -49,12 +51,9 @@ def step(state: MHState, logdensity_fn: Callable[[np.ndarray], np.ndarray],
     """One Metropolis–Hastings step of every chain: propose ``position + scale * increment``
     (``increment`` (chains, d): the proposal's correlated Gaussian draws), accept where
     ``log_u`` (chains,) is below the log ratio of the densities (symmetric proposal)."""
-    proposal = state.position + increment * np.exp(state.log_scale)[:, None]
-    lp = logdensity_fn(proposal)
-    log_ratio = lp - state.logdensity
-    accepted = log_u < log_ratio
-    position = np.where(accepted[:, None], proposal, state.position)
-    logdensity = np.where(accepted, lp, state.logdensity)
+    proposal = _kernels.mh_propose(state.position, increment, state.log_scale)
+    position, logdensity, accepted, log_ratio = _kernels.mh_accept(
+        state.position, state.logdensity, proposal, logdensity_fn(proposal), log_u)
     return MHState(position, logdensity, state.log_scale), MHInfo(accepted, log_ratio)
 
 
@@ -95,6 +94,25 @@ class MHRun:
                                              f"hold >= {ESS_LIMIT} effective draws)")
 
 
+class _Noise:
+    """The random inputs of successive steps (proposal increments with the covariance's
+    Cholesky factor applied, log-uniforms), drawn from ``rng`` in blocks of RANDOM_BLOCK."""
+
+    def __init__(self, rng: np.random.Generator, chol_t: np.ndarray, chains: int):
+        self.rng, self.chol_t, self.chains = rng, chol_t, chains
+        self.j = RANDOM_BLOCK
+        self.increments = self.log_u = np.empty(0)
+
+    def __call__(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.j == RANDOM_BLOCK:
+            c, d = self.chains, self.chol_t.shape[0]
+            self.increments = self.rng.standard_normal((RANDOM_BLOCK, c, d)) @ self.chol_t
+            self.log_u = np.log(self.rng.uniform(size=(RANDOM_BLOCK, c)))
+            self.j = 0
+        self.j += 1
+        return self.increments[self.j - 1], self.log_u[self.j - 1]
+
+
 def sample_mh(post: LogPosterior, config: MHConfig, rng: np.random.Generator,
               progress: bool = False) -> Draws:
     """Random-walk Metropolis–Hastings with a symmetric Gaussian proposal (the mode's covariance
@@ -105,32 +123,26 @@ def sample_mh(post: LogPosterior, config: MHConfig, rng: np.random.Generator,
     mode, cov = find_mode(post, rng)
     c, d = config.chains, post.dim
     starts = dispersed_starts(post, mode, cov, c, rng, spread=2.0)
-    chol_t = (np.linalg.cholesky(cov) * (2.38 / math.sqrt(d))).T
+    noise = _Noise(rng, (np.linalg.cholesky(cov) * (2.38 / math.sqrt(d))).T, c)
     target = 0.44 if d == 1 else 0.234  # optimal acceptance rates (Roberts & Rosenthal 2001)
-    keep, total = config.per_chain(), config.iterations()
-    samples, lps = np.empty((c, keep, d)), np.empty((c, keep))
-    accepted = np.zeros((c, keep), dtype=bool)
-    n_accept = np.zeros(c)
+    keep = config.per_chain()
+    samples, lps = np.empty((keep, c, d)), np.empty((keep, c))
+    accepted = np.zeros((keep, c), dtype=bool)
+    n_accept = np.zeros(c, dtype=np.int64)
     state = init(starts, post)
-    bar = tqdm(total=total, desc="mh", disable=not progress, leave=False, unit="it",
-               mininterval=0.2)
-    for block in range(0, total, RANDOM_BLOCK):
-        size = min(RANDOM_BLOCK, total - block)
-        increments = rng.standard_normal((size, c, d)) @ chol_t
-        log_u = np.log(rng.uniform(size=(size, c)))
-        for j in range(size):
-            it = block + j
-            state, info = step(state, post, increments[j], log_u[j])
-            if it < config.burn_in:
-                state = adapt(state, info, it, target)
-                continue
-            n_accept += info.accepted
-            k, r = divmod(it - config.burn_in, config.thin)
-            if r == config.thin - 1:
-                samples[:, k], lps[:, k], accepted[:, k] = (state.position, state.logdensity,
-                                                            info.accepted)
-        bar.update(size)
-    bar.close()
+    with tqdm(total=config.iterations(), desc="mh", disable=not progress, leave=False,
+              unit="it", mininterval=0.2) as bar:
+        for it in range(config.burn_in):
+            state, info = step(state, post, *noise())
+            state = adapt(state, info, it, target)
+        bar.update(config.burn_in)
+        for k in range(keep):
+            for _ in range(config.thin):
+                state, info = step(state, post, *noise())
+                n_accept += info.accepted
+            samples[k], lps[k], accepted[k] = state.position, state.logdensity, info.accepted
+            if k % 256 == 255:
+                bar.update(256 * config.thin)
     run = MHRun(floats(n_accept / (keep * config.thin)), floats(np.exp(state.log_scale)),
-                floats(mode), tuple(floats(s) for s in starts), total)
-    return Draws(samples, lps, run, accepted)
+                floats(mode), tuple(floats(s) for s in starts), config.iterations())
+    return Draws(samples.transpose(1, 0, 2).copy(), lps.T.copy(), run, accepted.T.copy())

@@ -9,23 +9,27 @@ from scipy.stats import qmc
 from ._posterior import LogPosterior
 
 PILOT_POINTS = 1024
+PILOT_TRIALS = 2000  #: evenly spaced trials that judge the design (all of a smaller table)
 
 
 def find_mode(post: LogPosterior, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Mode and a covariance guess: the best point of a Sobol design over the prior box,
-    polished by Nelder–Mead, and the inverse Hessian there (finite differences)."""
+    """Mode and a covariance guess: the best point of a Sobol design over the prior box
+    (judged on at most PILOT_TRIALS trials), polished by Nelder–Mead on the full posterior,
+    and the inverse Hessian there (finite differences)."""
     box = post.box(1e-4)
     width = box[:, 1] - box[:, 0]
     design = qmc.Sobol(post.dim, scramble=True, seed=rng).random(PILOT_POINTS)
     pilot = box[:, 0] + design * width
-    lp = post(pilot)
+    judge = post.subset(PILOT_TRIALS)
+    lp = judge(pilot)
     if not np.isfinite(lp).any():
-        raise ValueError(nowhere_message(post, pilot, f"a {PILOT_POINTS}-point design"))
+        raise ValueError(nowhere_message(judge, pilot, f"a {PILOT_POINTS}-point design"))
     best = pilot[int(np.argmax(lp))]
+    lp_best = lp.max() if judge is post else post(best[None, :])[0]
     res = optimize.minimize(lambda x: -post(x[None, :])[0], best, method="Nelder-Mead",
                             bounds=list(map(tuple, box)),
                             options={"xatol": 1e-10, "fatol": 1e-10, "maxiter": 400 * post.dim})
-    mode = res.x if np.isfinite(res.fun) and -res.fun >= lp.max() else best
+    mode = res.x if np.isfinite(res.fun) and -res.fun >= lp_best else best
     return mode, covariance(post, mode, width)
 
 

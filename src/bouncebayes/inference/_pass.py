@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._draws import Draws
-from ._memory import WORK_SHARE, batch_rows, format_bytes
+from ._memory import batch_rows, format_bytes
 
 PREDICTIVE_DRAWS = 1000  #: draws (over all chains) with replicated data
 REGIME_DRAWS = 2000  #: draws re-simulated for the regimes when the pass cannot keep all
@@ -42,29 +42,33 @@ def _even(n: int, k: int) -> np.ndarray:
 
 
 def posterior_pass(like, draws: Draws, rng: np.random.Generator,
-                   memory_budget: int) -> PosteriorPass:
-    """Evaluate the likelihood's terms at every draw when they fit in half the budget (else
-    at REGIME_DRAWS evenly spaced draws, for the regimes only), then replicate the data at
-    PREDICTIVE_DRAWS evenly spaced draws."""
+                   work: float) -> PosteriorPass:
+    """Evaluate the likelihood's terms at every draw when they fit in half of ``work`` bytes
+    (else at REGIME_DRAWS evenly spaced draws, for the regimes only), and replicate the data at
+    up to PREDICTIVE_DRAWS evenly spaced draws (as many as a quarter of ``work`` holds); model
+    evaluations in batches within the rest."""
     chains, n, _ = draws.samples.shape
     m = len(like.observations)
     size = chains * n * m * 8.0
     note = ""
-    if size <= WORK_SHARE * memory_budget:
+    if size <= 0.5 * work:
         pick = np.arange(n)
+        work -= size
     else:
         pick = _even(n, math.ceil(REGIME_DRAWS / chains))
         note = (f"the pointwise log-likelihood of {chains * n} draws x {m} observations "
-                f"({format_bytes(size)}) does not fit in half the memory budget "
-                f"({format_bytes(memory_budget)}); posterior.nc has no log_likelihood group: "
-                f"raise `memory_budget` to keep it")
-    terms, regimes = _evaluate(like, draws.samples[:, pick], memory_budget)
-    replicates = _replicate(like, draws, rng, memory_budget)
+                f"({format_bytes(size)}) does not fit in the memory budget beside the rest "
+                f"of the run; posterior.nc has no log_likelihood group: raise "
+                f"`memory_budget` to keep it")
+    per_chain = max(1, min(math.ceil(PREDICTIVE_DRAWS / chains),
+                           int(0.25 * work // (chains * m * 16.0))))
+    replicates = _replicate(like, draws, _even(n, per_chain), rng, 0.75 * work)
+    terms, regimes = _evaluate(like, draws.samples[:, pick], 0.75 * work)
     return PosteriorPass(None if note else terms.reshape(chains, n, m), replicates, regimes,
                          note)
 
 
-def _evaluate(like, samples: np.ndarray, budget: int) -> tuple[np.ndarray, dict]:
+def _evaluate(like, samples: np.ndarray, budget: float) -> tuple[np.ndarray, dict]:
     """Terms (rows, observations) of the rows of ``samples`` and the regime counts."""
     flat = samples.reshape(-1, samples.shape[-1])
     rows = batch_rows(budget, like.bytes_per_row)
@@ -90,18 +94,17 @@ def _evaluate(like, samples: np.ndarray, budget: int) -> tuple[np.ndarray, dict]
     return terms, regimes
 
 
-def _replicate(like, draws: Draws, rng: np.random.Generator, budget: int) -> Replicates:
-    """Replicated rebounds at evenly spaced draws of every chain."""
-    chains, n, d = draws.samples.shape
-    pick = _even(n, math.ceil(PREDICTIVE_DRAWS / chains))
+def _replicate(like, draws: Draws, pick: np.ndarray, rng: np.random.Generator,
+               budget: float) -> Replicates:
+    """Replicated rebounds at the draws ``pick`` of every chain."""
+    chains, _, d = draws.samples.shape
     flat = draws.samples[:, pick].reshape(-1, d)
+    m = len(like.observations)
+    speed, angle = np.empty((flat.shape[0], m)), np.empty((flat.shape[0], m))
     rows = batch_rows(budget, like.bytes_per_row)
-    speed, angle = [], []
     for s in range(0, flat.shape[0], rows):
         theta = flat[s:s + rows]
-        v, a = like.predict(theta, like.pointwise(theta).rebounds, rng)
-        speed.append(v)
-        angle.append(a)
-    shape = (chains, pick.size, -1)
-    return Replicates(pick, np.concatenate(speed).reshape(shape),
-                      np.concatenate(angle).reshape(shape))
+        speed[s:s + rows], angle[s:s + rows] = like.predict(
+            theta, like.pointwise(theta).rebounds, rng)
+    shape = (chains, pick.size, m)
+    return Replicates(pick, speed.reshape(shape), angle.reshape(shape))

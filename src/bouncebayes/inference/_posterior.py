@@ -3,12 +3,21 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from ..data import Prior, Uniform
+from . import _kernels as _kernel_module
+
+_kernels: Any = _kernel_module  # numba dispatchers: mypy cannot see their signatures
+
+
+def _rows(theta: Any) -> np.ndarray:
+    """Parameter rows as a float64 (n, d) array (one row from a 1-D vector)."""
+    theta = np.asarray(theta, dtype=float)
+    return theta[None, :] if theta.ndim == 1 else theta
 
 
 @dataclass(frozen=True)
@@ -45,28 +54,39 @@ class LogPosterior:
 
     def log_prior(self, theta: np.ndarray) -> np.ndarray:
         """Log prior density of rows (n, d); ``-inf`` outside the support."""
-        theta = np.atleast_2d(theta)
-        inside = ((theta >= self._lower) & (theta <= self._upper)).all(axis=1)
-        out = np.where(inside, self._constant, -np.inf)
-        for i in self._shaped:
-            out = out + self.priors[i].logpdf(theta[:, i])
-        return out
+        return self._log_prior(_rows(theta))[0]
+
+    def _log_prior(self, theta: np.ndarray) -> tuple[np.ndarray, int]:
+        """Log prior of rows (n, d) and the number of rows inside the support."""
+        out = np.empty(theta.shape[0])
+        inside = _kernels.box_log_prior(theta, self._lower, self._upper, self._constant, out)
+        if self._shaped:
+            for i in self._shaped:
+                out += self.priors[i].logpdf(theta[:, i])
+            inside = int(np.count_nonzero(out > -np.inf))
+        return out, inside
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
-        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        theta = _rows(theta)
         if theta.shape[0] > self.batch_rows:
             return np.concatenate([self(theta[s:s + self.batch_rows])
                                    for s in range(0, theta.shape[0], self.batch_rows)])
-        lp = self.log_prior(theta)
+        lp, inside_rows = self._log_prior(theta)
+        if inside_rows == theta.shape[0]:  # the common case: no copies
+            _kernels.add_log_densities(lp, self.likelihood(theta), lp)
+            return lp
         inside = lp > -np.inf
-        if inside.all():
-            out = lp + self.likelihood(theta)
-        else:
-            out = np.full(theta.shape[0], -np.inf)
-            if inside.any():
-                out[inside] = lp[inside] + self.likelihood(theta[inside])
-        out[np.isnan(out)] = -np.inf
-        return out
+        if inside.any():
+            part = lp[inside]
+            _kernels.add_log_densities(part, self.likelihood(theta[inside]), part)
+            lp[inside] = part
+        return lp
+
+    def subset(self, most: int) -> LogPosterior:
+        """The posterior given at most ``most`` evenly spaced trials (see the likelihoods'
+        ``subset``)."""
+        like = self.likelihood.subset(most)
+        return self if like is self.likelihood else replace(self, likelihood=like)
 
     def box(self, mass: float = 1e-6) -> np.ndarray:
         """(d, 2): the prior supports, cut to finite quantiles where unbounded."""
