@@ -129,11 +129,8 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str = "gaussian
     like = make_likelihood(likelihood, experiment, trials, names, rng=rng_likelihood,
                            noise=noise, memory_budget=work)
     post = _log_posterior(like, experiment, names, work)
-    if sampler == "grid":
-        draws = sample_grid(post, config, rng_sampler, progress)
-    else:
-        run = sample_mh if sampler == "mh" else sample_ensemble
-        draws = run(post, config, rng_sampler, progress)
+    run = {"mh": sample_mh, "ensemble": sample_ensemble, "grid": sample_grid}[sampler]
+    draws = run(post, config, rng_sampler, progress)  # type: ignore[operator]
     checked = posterior_pass(like, draws, rng_pass, work)
     params, warns = _summarize(post, draws, checked, notes, likelihood, trials)
     return InferenceResult(experiment, trials, likelihood, sampler, int(seed), config, post,
