@@ -218,21 +218,31 @@ def mh_gaussian(exp, trials, n_baseline: int) -> dict:
     per_step = baseline_mh_step_seconds(post, like, config, n_baseline, seed=0)
     baseline = per_step * iterations
     model = clock.seconds * seconds / clocked_seconds  # the clock's own cost scaled out
+    calls = clock.calls
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)  # the same run with the model's compiled loops on one thread
+    clock.seconds = 0.0
+    _, one_thread = timed(lambda: sample_mh(clocked, config, np.random.default_rng(0)))
+    numba.set_num_threads(threads)
+    print(f"    on one numba thread: {one_thread:.2f} s, of which the model "
+          f"{clock.seconds:.2f} s")
     print(f"(g) paper's MH, gaussian, {trials.n} trials at their own incidence: "
           f"{seconds:.2f} s for the sampler ({iterations} iterations x {config.chains} chains, "
           f"one model call of {config.chains} x {trials.n} bounces each), of which the model "
-          f"{model:.2f} s ({clock.calls} calls) and sampler + likelihood {seconds - model:.2f} s; "
+          f"{model:.2f} s ({calls} calls) and sampler + likelihood {seconds - model:.2f} s; "
           f"floor (bare model calls) {floor / 2000 * iterations:.2f} s; infer end to end "
           f"{infer_seconds:.2f} s")
     print(f"    baseline (previous NumPy design, same model): {1e6 * per_step:.0f} us per "
           f"iteration x {iterations} = {baseline:.2f} s; ratio {baseline / seconds:.1f}")
     return {"mh_gaussian_seconds": seconds, "mh_gaussian_infer_seconds": infer_seconds,
             "mh_gaussian_model_seconds": model, "mh_gaussian_own_seconds": seconds - model,
-            "mh_gaussian_model_calls": clock.calls,
+            "mh_gaussian_model_calls": calls,
             "mh_gaussian_forward_floor_seconds": floor / 2000 * iterations,
             "mh_gaussian_baseline_seconds": baseline,
             "mh_gaussian_baseline_iterations_timed": n_baseline,
-            "mh_gaussian_ratio": baseline / seconds, "mh_gaussian_iterations": iterations}
+            "mh_gaussian_ratio": baseline / seconds, "mh_gaussian_iterations": iterations,
+            "mh_gaussian_seconds_one_thread": one_thread,
+            "mh_gaussian_model_seconds_one_thread": clock.seconds}
 
 
 LARGE_SCRIPT = """
