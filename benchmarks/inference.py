@@ -5,14 +5,17 @@ Timed, in one run, on the bundled demo campaign (55 bounces of the paper's setup
 
 (g) the paper's Metropolis–Hastings settings (``MHConfig()``: 15,000 draws over 4 chains,
     burn-in 100, thinning 3: 11,350 iterations per chain) with the ``gaussian`` likelihood, every
-    trial at its own incidence: ``mh_gaussian_seconds`` is the sampler (mode search and the
-    chains, all four advanced by one batched model call per iteration); the time inside the
-    forward model is measured separately (``mh_gaussian_model_seconds``; the rest, sampler and
-    likelihood, is ``mh_gaussian_own_seconds``), and so are the floor (that many bare model
-    calls of 4 x 55 bounces) and ``infer`` end to end (pointwise log-likelihood, predictive,
-    diagnostics). Baseline: the previous design of the same algorithm on the same model, one
-    NumPy expression at a time (prior densities summed, the covariance broadcast and copied at
-    every call, ``np.where`` accept), timed on the first iterations and extrapolated;
+    trial at its own incidence. ``mh_gaussian_seconds`` is the sampler as a user runs it (wall
+    clock, the model's default threads): mode search and the chains, all four advanced by one
+    batched model call per iteration; ``mh_gaussian_infer_seconds`` is ``infer`` end to end
+    (also the pointwise log-likelihood, the predictive and the diagnostics). The same sampler
+    is then run on one thread and timed in CPU seconds of this process (``*_cpu_seconds``),
+    which a loaded machine does not inflate, split into the time inside the model and the rest
+    (sampler and likelihood, ``mh_gaussian_own_cpu_seconds``), with the floor of that many bare
+    model calls. Baseline, both ways: the previous design of the same algorithm on the same
+    model, one NumPy expression at a time (prior densities summed, the covariance broadcast and
+    copied at every call, ``np.where`` accept), its chains timed on the first iterations and
+    extrapolated;
 (l) with ``--large``: a 100,000-row table (the demo tiled) under a 512 MiB memory budget, short
     chains, in a child process: seconds and the growth of its resident set;
 (a) ``infer(likelihood="kde", sampler="mh")`` with the paper's settings, end to end (mode
@@ -134,23 +137,25 @@ def time_baseline(loglike, points: np.ndarray) -> tuple[float, np.ndarray]:
 class TimedForward:
     """The likelihood's forward model with the time spent inside it accumulated."""
 
-    def __init__(self, forward):
-        self.forward, self.seconds, self.calls = forward, 0.0, 0
+    def __init__(self, forward, clock=time.perf_counter):
+        self.forward, self.seconds, self.calls, self.clock = forward, 0.0, 0, clock
         self.names, self.n_conditions = forward.names, forward.n_conditions
         self.experiment = forward.experiment
 
     def __call__(self, theta):
-        t0 = time.perf_counter()
+        t0 = self.clock()
         out = self.forward(theta)
-        self.seconds += time.perf_counter() - t0
+        self.seconds += self.clock() - t0
         self.calls += 1
         return out
 
 
-def baseline_mh_step_seconds(post, like, config: MHConfig, iterations: int, seed: int) -> float:
-    """Seconds per iteration of the previous design: one chain batch per iteration, but the
-    prior as a sum of per-prior densities, the likelihood's covariance broadcast and copied at
-    every call, NumPy accept and bookkeeping (a faithful copy of that code, same model)."""
+def baseline_mh_seconds(post, like, config: MHConfig, iterations: int, seed: int,
+                        clock=time.perf_counter) -> float:
+    """Seconds of the sampler in the previous design (mode search, then the chains timed for
+    ``iterations`` and extrapolated to the run's): one chain batch per iteration, but the prior
+    as a sum of per-prior densities, the likelihood's covariance broadcast and copied at every
+    call, NumPy accept and bookkeeping (a faithful copy of that code, same model)."""
     d = post.dim
 
     def loglike(theta):
@@ -176,7 +181,9 @@ def baseline_mh_step_seconds(post, like, config: MHConfig, iterations: int, seed
         return np.where(np.isnan(out), -np.inf, out)
 
     rng = np.random.default_rng(seed)
+    t_mode = clock()
     mode, cov = find_mode(post, rng)
+    t_mode = clock() - t_mode
     x = dispersed_starts(post, mode, cov, config.chains, rng, 2.0)
     lp = logpost(x)
     chol = np.linalg.cholesky(cov) * (2.38 / math.sqrt(d))
@@ -184,7 +191,7 @@ def baseline_mh_step_seconds(post, like, config: MHConfig, iterations: int, seed
     log_u = np.log(rng.uniform(size=(iterations, config.chains)))
     log_scale = np.zeros(config.chains)
     keep = np.empty((iterations, config.chains, d))
-    t0 = time.perf_counter()
+    t0 = clock()
     for it in range(iterations):
         proposal = x + normals[it] * np.exp(log_scale)[:, None]
         lp_new = logpost(proposal)
@@ -196,53 +203,56 @@ def baseline_mh_step_seconds(post, like, config: MHConfig, iterations: int, seed
         k, r = divmod(it, config.thin)
         if r == config.thin - 1:
             keep[k] = x
-    return (time.perf_counter() - t0) / iterations
+    return t_mode + (clock() - t0) / iterations * config.iterations()
 
 
 def mh_gaussian(exp, trials, n_baseline: int) -> dict:
-    """(g): the paper's MH settings, gaussian likelihood, 55 trials at their own incidence."""
+    """(g): the paper's MH settings, gaussian likelihood, 55 trials at their own incidence, as a
+    user runs it (wall clock, the model's default threads)."""
     config = MHConfig()
-    iterations = config.iterations()
     result, infer_seconds = timed(lambda: infer(exp, trials, likelihood="gaussian",
                                                 sampler="mh", seed=0, config=config))
-    like = result.posterior.likelihood
-    post = result.posterior
-    sample, seconds = timed(lambda: sample_mh(post, config, np.random.default_rng(0)))
-    clock = TimedForward(like.forward)
+    post, like = result.posterior, result.posterior.likelihood
+    _, seconds = timed(lambda: sample_mh(post, config, np.random.default_rng(0)))
+    baseline = baseline_mh_seconds(post, like, config, n_baseline, seed=0)
+    print(f"(g) paper's MH, gaussian, {trials.n} trials at their own incidence: "
+          f"{seconds:.2f} s for the sampler ({config.iterations()} iterations x {config.chains} "
+          f"chains, one model call of {config.chains} x {trials.n} bounces each); infer end to "
+          f"end {infer_seconds:.2f} s; baseline (previous NumPy design, same model) "
+          f"{baseline:.2f} s, ratio {baseline / seconds:.1f}")
+    return {"mh_gaussian_seconds": seconds, "mh_gaussian_infer_seconds": infer_seconds,
+            "mh_gaussian_baseline_seconds": baseline,
+            "mh_gaussian_ratio": baseline / seconds,
+            "mh_gaussian_baseline_iterations_timed": n_baseline,
+            "mh_gaussian_iterations": config.iterations()} | mh_gaussian_split(post, like,
+                                                                                config, n_baseline)
+
+
+def mh_gaussian_split(post, like, config: MHConfig, n_baseline: int) -> dict:
+    """The same sampler on one thread in CPU seconds of this process, which a loaded machine
+    does not inflate: the time inside the model, the rest (sampler and likelihood), the floor
+    (that many bare model calls) and the previous design's."""
+    cpu = time.process_time
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)
+    clock = TimedForward(like.forward, cpu)
     clocked = LogPosterior(post.names, post.priors, post.units,
                            dataclasses.replace(like, forward=clock), post.batch_rows)
-    _, clocked_seconds = timed(lambda: sample_mh(clocked, config, np.random.default_rng(0)))
+    sample, total = timed(lambda: sample_mh(clocked, config, np.random.default_rng(0)), cpu)
     theta = sample.samples[:, -1, :].copy()
-    like.forward(theta)
-    _, floor = timed(lambda: [like.forward(theta) for _ in range(2000)])
-    per_step = baseline_mh_step_seconds(post, like, config, n_baseline, seed=0)
-    baseline = per_step * iterations
-    model = clock.seconds * seconds / clocked_seconds  # the clock's own cost scaled out
-    calls = clock.calls
-    threads = numba.get_num_threads()
-    numba.set_num_threads(1)  # the same run with the model's compiled loops on one thread
-    clock.seconds = 0.0
-    _, one_thread = timed(lambda: sample_mh(clocked, config, np.random.default_rng(0)))
+    _, floor = timed(lambda: [like.forward(theta) for _ in range(2000)], cpu)
+    floor *= config.iterations() / 2000
+    baseline = baseline_mh_seconds(post, like, config, n_baseline, seed=0, clock=cpu)
     numba.set_num_threads(threads)
-    print(f"    on one numba thread: {one_thread:.2f} s, of which the model "
-          f"{clock.seconds:.2f} s")
-    print(f"(g) paper's MH, gaussian, {trials.n} trials at their own incidence: "
-          f"{seconds:.2f} s for the sampler ({iterations} iterations x {config.chains} chains, "
-          f"one model call of {config.chains} x {trials.n} bounces each), of which the model "
-          f"{model:.2f} s ({calls} calls) and sampler + likelihood {seconds - model:.2f} s; "
-          f"floor (bare model calls) {floor / 2000 * iterations:.2f} s; infer end to end "
-          f"{infer_seconds:.2f} s")
-    print(f"    baseline (previous NumPy design, same model): {1e6 * per_step:.0f} us per "
-          f"iteration x {iterations} = {baseline:.2f} s; ratio {baseline / seconds:.1f}")
-    return {"mh_gaussian_seconds": seconds, "mh_gaussian_infer_seconds": infer_seconds,
-            "mh_gaussian_model_seconds": model, "mh_gaussian_own_seconds": seconds - model,
-            "mh_gaussian_model_calls": calls,
-            "mh_gaussian_forward_floor_seconds": floor / 2000 * iterations,
-            "mh_gaussian_baseline_seconds": baseline,
-            "mh_gaussian_baseline_iterations_timed": n_baseline,
-            "mh_gaussian_ratio": baseline / seconds, "mh_gaussian_iterations": iterations,
-            "mh_gaussian_seconds_one_thread": one_thread,
-            "mh_gaussian_model_seconds_one_thread": clock.seconds}
+    print(f"    on one thread, CPU seconds: {total:.2f} s, of which the model {clock.seconds:.2f} "
+          f"s ({clock.calls} calls) and sampler + likelihood {total - clock.seconds:.2f} s; "
+          f"floor (bare model calls) {floor:.2f} s; baseline {baseline:.2f} s, ratio "
+          f"{baseline / total:.1f}")
+    return {"mh_gaussian_cpu_seconds": total, "mh_gaussian_model_cpu_seconds": clock.seconds,
+            "mh_gaussian_own_cpu_seconds": total - clock.seconds,
+            "mh_gaussian_model_calls": clock.calls, "mh_gaussian_floor_cpu_seconds": floor,
+            "mh_gaussian_baseline_cpu_seconds": baseline,
+            "mh_gaussian_ratio_cpu": baseline / total}
 
 
 LARGE_SCRIPT = """
@@ -286,10 +296,10 @@ def large_table() -> dict:
     return result
 
 
-def timed(fn):
-    t0 = time.perf_counter()
+def timed(fn, clock=time.perf_counter):
+    t0 = clock()
     out = fn()
-    return out, time.perf_counter() - t0
+    return out, clock() - t0
 
 
 def paper_kde_mh(exp, trials, n_base: int, rng) -> dict:
