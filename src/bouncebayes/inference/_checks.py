@@ -3,8 +3,6 @@ bounces that no parameter value can produce."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..data import Experiment, Trials
@@ -60,8 +58,3 @@ def data_warnings(experiment: Experiment, trials: Trials) -> list[str]:
     shown = ", ".join(trials.labels[i] for i in bad[:10]) + (", ..." if bad.size > 10 else "")
     return [f"{bad.size} of {trials.n} bounces rebound faster than they arrived, beyond their "
             f"measurement error (trials {shown}; trial {example}): {why}"]
-
-
-def finite_or_none(x: float) -> float | None:
-    """A JSON-ready number: ``None`` where not finite."""
-    return x if math.isfinite(x) else None
