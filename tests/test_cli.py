@@ -175,9 +175,9 @@ def test_every_sampling_command_has_the_same_sampler_flags():
 def test_library_argument_names_become_flags_in_messages():
     from bouncebayes.cli._common import flag_names
 
-    assert flag_names("`burn_in` must be >= 0; raise `grid_points` or `draws`") == (
+    assert flag_names("`burn_in` must be >= 0; raise `points` or `draws`") == (
         "`--burn-in` must be >= 0; raise `--grid-points` or `--draws`")
-    assert flag_names("`ensemble_thin` must be >= 1") == "`--thin` must be >= 1"
+    assert flag_names("`thin` must be >= 1") == "`--thin` must be >= 1"
     assert flag_names("`min_points` and `youngs_modulus`", frozenset({"--min-points"})) == (
         "`--min-points` and `youngs_modulus`")
 

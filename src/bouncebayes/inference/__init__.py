@@ -5,11 +5,11 @@ The entry point is :func:`infer`; each sampler has its own configuration (:class
 pair (``mh_init``/``mh_step``, ``ensemble_init``/``ensemble_step``) with typed state records.
 """
 
+from ._config import CONFIGS as SAMPLER_CONFIGS
 from ._config import SAMPLERS as SAMPLERS
 from ._config import EnsembleConfig as EnsembleConfig
 from ._config import GridConfig as GridConfig
 from ._config import MHConfig as MHConfig
-from ._config import SamplerConfig as SamplerConfig
 from ._config import sampler_config as sampler_config
 from ._draws import Draws as Draws
 from ._ensemble import EnsembleInfo as EnsembleInfo
@@ -44,10 +44,10 @@ from ._summary import ParameterSummary as ParameterSummary
 from ._summary import marginal_modes as marginal_modes
 
 __all__ = [
-    "BYTES_PER_BOUNCE", "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_MEANINGS", "Draws",
+    "BYTES_PER_BOUNCE", "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_CONFIGS", "SAMPLER_MEANINGS", "Draws",
     "EnsembleConfig", "EnsembleInfo", "EnsembleRun", "EnsembleState", "Forward", "GridConfig",
     "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",
-    "MHState", "MemoryBudgetError", "ParameterSummary", "Replicates", "SamplerConfig",
+    "MHState", "MemoryBudgetError", "ParameterSummary", "Replicates",
     "ensemble_init", "ensemble_step", "format_table", "infer", "inference_data",
     "load_inference", "marginal_modes", "mh_init", "mh_step", "noise_priors",
     "sampler_config", "write_outputs",

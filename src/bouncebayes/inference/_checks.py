@@ -7,21 +7,8 @@ import numpy as np
 
 from ..data import Experiment, Trials
 
-LARGEST_PRIOR_VALUE = 1e100  #: beyond any physical value in SI units; keeps moments finite
+
 ENERGY_SLACK = 0.01  #: relative: gravity's work during the contact, rounding in the table
-
-
-def check_prior_ranges(experiment: Experiment, names: tuple[str, ...]) -> None:
-    """Refuse a prior whose range no sampler can explore (its moments overflow)."""
-    for name in names:
-        low, high = experiment.priors[name].box(1e-6)
-        if not max(abs(low), abs(high)) <= LARGEST_PRIOR_VALUE:
-            unit = experiment.unit(name)
-            raise ValueError(f"{experiment.source}: the prior of {name} reaches "
-                             f"{high if abs(high) >= abs(low) else low:g}"
-                             f"{' ' + unit if unit else ''}, beyond any physical value and "
-                             f"too wide to explore (magnitudes up to {LARGEST_PRIOR_VALUE:g}); "
-                             f"give the range where {name} is physical")
 
 
 def faster_than_arrived(experiment: Experiment, trials: Trials) -> np.ndarray:

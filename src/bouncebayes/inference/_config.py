@@ -135,8 +135,6 @@ def config_for(sampler: str, config: object) -> AnyConfig:
     cls = CONFIGS[sampler]
     if config is None:
         return cls()
-    if isinstance(config, SamplerConfig):
-        return config.for_sampler(sampler)
     if not isinstance(config, cls):
         raise TypeError(f"`config` must be a {cls.__name__} for sampler={sampler!r}; got "
                         f"{type(config).__name__}")
@@ -144,35 +142,6 @@ def config_for(sampler: str, config: object) -> AnyConfig:
 
 
 def sampler_of(config: object) -> str | None:
-    """The sampler a configuration belongs to (``None`` for none or a SamplerConfig)."""
+    """The sampler a configuration belongs to (``None`` for none)."""
     return next((name for name, cls in CONFIGS.items() if isinstance(config, cls)), None)
 
-
-@dataclass(frozen=True, kw_only=True)
-class SamplerConfig:
-    """Deprecated: the settings of all three samplers in one record, as the command line
-    gathers them. ``infer`` turns it into the chosen sampler's own configuration
-    (:class:`MHConfig`, :class:`EnsembleConfig` or :class:`GridConfig`); pass those instead."""
-
-    draws: int = 15_000
-    chains: int = 4
-    burn_in: int = 100
-    thin: int = 3
-    walkers: int = 32
-    ensemble_burn_in: int = 500
-    ensemble_thin: int = 5
-    grid_points: int | None = None
-
-    def __post_init__(self) -> None:
-        for sampler in SAMPLERS:
-            self.for_sampler(sampler)
-
-    def for_sampler(self, sampler: str) -> AnyConfig:
-        """The configuration of ``sampler`` with these settings."""
-        if sampler == "mh":
-            return MHConfig(draws=self.draws, chains=self.chains, burn_in=self.burn_in,
-                            thin=self.thin)
-        if sampler == "ensemble":
-            return EnsembleConfig(draws=self.draws, walkers=self.walkers,
-                                  burn_in=self.ensemble_burn_in, thin=self.ensemble_thin)
-        return GridConfig(draws=self.draws, points=self.grid_points)

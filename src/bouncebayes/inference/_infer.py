@@ -12,8 +12,8 @@ import numpy as np
 from .._validate import check_choice
 from .._version import __version__
 from ..data import Experiment, Trials
-from ._checks import check_prior_ranges, data_warnings
-from ._config import (CONFIGS, SAMPLERS, AnyConfig, SamplerConfig, config_for, sampler_of)
+from ._checks import data_warnings
+from ._config import SAMPLERS, AnyConfig, config_for, sampler_config, sampler_of
 from ._draws import Draws
 from ._ensemble import EnsembleRun, sample_ensemble
 from ._grid import GridRun, check_grid_memory, grid_bytes, sample_grid
@@ -121,7 +121,6 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str = "gaussian
     names = experiment.parameter_names
     if not names:
         raise ValueError(f"{experiment.source}: no [parameters.NAME] table: nothing to infer")
-    check_prior_ranges(experiment, names)
     work = budget - _plan(likelihood, sampler, config, len(names), trials, budget)
     notes = data_warnings(experiment, trials)
     start = time.perf_counter()
@@ -208,9 +207,7 @@ def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
     params = tuple(ParameterSummary(**_fields(p)) for p in summary["parameters"].values())
     sampler = summary["sampler"]
     settings = {k: v for k, v in summary["sampler_settings"].items() if k != "result"}
-    fields = set(CONFIGS[sampler].__dataclass_fields__)
-    config = (CONFIGS[sampler](**settings) if set(settings) <= fields
-              else SamplerConfig(**settings).for_sampler(sampler))  # written by an older version
+    config = sampler_config(sampler, **settings)
     stats = arrays["stats"]
     draws = Draws(arrays["samples"], stats["lp"],
                   RUN_TYPES[sampler].from_dict(summary["sampler_settings"]["result"]),
