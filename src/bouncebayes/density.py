@@ -1,4 +1,4 @@
-"""Kernel density estimates of the measured rebounds, rho_exp(v, theta) (MODEL.md §4).
+"""Kernel density estimates of the measured rebounds, rho_exp(v, theta) (docs/likelihoods.md, the `kde` likelihood).
 
 The paper builds a Gaussian KDE of the rebound speed v_f (m/s) and of the rebound angle theta_f
 (deg) with MATLAB's ``ksdensity`` (normal-reference bandwidth), checks that they are
