@@ -71,13 +71,13 @@ def data_kind(data: Path) -> str:
 
 
 def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], None] = print,
-                **fit_kwargs):
+                progress: bool = False, **fit_kwargs):
     """The trial table of a folder of trajectories, written to ``out``
-    (:func:`bouncebayes.kinematics.trial_table_from_folder`; fast enough, about 15 ms a file,
-    to need no progress bar)."""
+    (:func:`bouncebayes.kinematics.trial_table_from_folder`, with a progress bar if asked)."""
     from .kinematics import trial_table_from_folder
 
-    return trial_table_from_folder(folder, experiment, out, log=log, **fit_kwargs)
+    return trial_table_from_folder(folder, experiment, out, log=log, progress=progress,
+                                   **fit_kwargs)
 
 
 def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
@@ -153,7 +153,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         likelihood: str = "gaussian", sampler: str = "mh", seed: int = 0, config=None,
         noise: str = "auto", progress: bool = False, log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
-        argv: Sequence[str] | None = None) -> RunOutcome:
+        argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",),
+        memory_budget: int | None = None) -> RunOutcome:
     """Run every stage into the run folder ``out``, which changes only if all succeed.
 
     Arguments:
@@ -172,20 +173,26 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         fps: the frame rate of videos (required for image-sequence folders; overrides a video
             file's).
         argv: the command line, recorded in the provenance of every file.
+        figure_formats: the files of each figure: PNG always, and "svg" or "pdf" if asked.
+        memory_budget: as :func:`bouncebayes.inference.infer` (bytes; its default if None).
     """
     out, data, experiment_path = Path(out), Path(data), Path(experiment_path)
     check_run_folder(out)
     record = provenance(inputs={"experiment": experiment_path, "data": data, "truth": truth},
                         seed=seed, argv=argv, config={
                             "likelihood": likelihood, "sampler": sampler, "noise": noise,
-                            "sampler_config": config, "fps": fps})
+                            "sampler_config": config, "fps": fps,
+                            "figure_formats": list(figure_formats),
+                            "memory_budget": memory_budget})
     settings = dict(likelihood=likelihood, sampler=sampler, seed=seed, config=config,
                     noise=noise, progress=progress)
+    if memory_budget is not None:
+        settings["memory_budget"] = memory_budget
     times: dict[str, float] = {}
     with staged_output(out, "folder") as stage:
         result, prop = _analyse(experiment_path, data, stage, out, settings, times, log, fps,
                                 truth)
-        report = _draw(result, prop, stage, times, log, record)
+        report = _draw(result, prop, stage, times, log, record, figure_formats)
         stamp_tree(stage, record)
         carry_over(out, stage, log)
     from .inference import format_table
@@ -238,18 +245,19 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
         return load_trials(data, experiment)
     folder = _track_videos(data, experiment, stage, log, fps, progress) \
         if kind == "videos" else data
-    trial_table(folder, experiment, table, log=log)
+    trial_table(folder, experiment, table, log=log, progress=progress)
     trials = load_trials(table, experiment)
     return dataclasses.replace(trials, source=str(out / TRIALS_FILE))  # not the staging path
 
 
-def _draw(result, prop, stage: Path, times: dict, log, record: dict) -> Path:
+def _draw(result, prop, stage: Path, times: dict, log, record: dict,
+          formats: Sequence[str]) -> Path:
     """Stages 4-5: figures and the report (written into ``stage``)."""
     from .report import load_truth, make_figures, render_report
 
     start = _stage(4, "figures", log)
     truth_values = load_truth(stage)
-    figures = make_figures(result, prop, stage, truth_values)
+    figures = make_figures(result, prop, stage, truth_values, formats=formats)
     times["figures"] = time.perf_counter() - start
 
     start = _stage(5, "report", log)
@@ -261,7 +269,7 @@ def _draw(result, prop, stage: Path, times: dict, log, record: dict) -> Path:
 
 def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
                   log: Callable[[str], None] = lambda message: None,
-                  progress: bool = False) -> Path:
+                  progress: bool = False, figure_formats: Sequence[str] = ("png",)) -> Path:
     """Redraw the figures and rewrite ``report.html`` of a run folder from its files
     (propagating the posterior first if the folder has no propagation yet). Every file is
     checked first, and a damaged one is named; the folder changes only when all is done."""
@@ -285,7 +293,7 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
             prop = propagate(result)
             written += write_propagation(prop, stage).values()
         log("figures ...")
-        figures = make_figures(result, prop, stage, truth)
+        figures = make_figures(result, prop, stage, truth, formats=figure_formats)
         report = render_report(result, prop.summary(), figures, stage, truth,
                                provenance=shown)
         for path in [*written, *(stage / "figures").rglob("*")]:
