@@ -236,7 +236,9 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
 
 def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
     """The run's trials, and its copy of the trial table in ``stage``."""
+    from ._provenance import file_sha256, read_provenance
     from .data import load_trials
+    from .kinematics import trials_from_kinematics
 
     kind = data_kind(data)
     table = stage / TRIALS_FILE
@@ -245,9 +247,11 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
         return load_trials(data, experiment)
     folder = _track_videos(data, experiment, stage, log, fps, progress) \
         if kind == "videos" else data
-    trial_table(folder, experiment, table, log=log, progress=progress)
-    trials = load_trials(table, experiment)
-    return dataclasses.replace(trials, source=str(out / TRIALS_FILE))  # not the staging path
+    _, results = trial_table(folder, experiment, table, log=log, progress=progress)
+    # the fitted kinematics go on as they are, not back through the file just written
+    trials = trials_from_kinematics(results, experiment)
+    return dataclasses.replace(trials, source=str(out / TRIALS_FILE),  # not the staging path
+                               sha256=file_sha256(table), provenance=read_provenance(table))
 
 
 def _draw(result, prop, stage: Path, times: dict, log, record: dict,
