@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: install demo test test-slow bench lint clean
+.PHONY: install demo test test-slow test-newest bench lint clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,26 @@ test: $(STAMP)
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow
 
+## The inference tests against the newest ArviZ line (arviz-base/arviz-stats 1.x, which need
+## Python >= 3.12); `make test` covers the lowest supported (0.8, the line on Python 3.11)
+PYTHON_NEWEST ?= python3.12
+NEWEST := .venv-newest
+test-newest:
+	@if command -v $(PYTHON_NEWEST) >/dev/null 2>&1; then \
+		$(PYTHON_NEWEST) -m venv $(NEWEST) && \
+		$(NEWEST)/bin/python -m pip install --quiet --upgrade pip && \
+		$(NEWEST)/bin/python -m pip install --quiet --upgrade -e '.[test]' \
+			'arviz-base>=1' 'arviz-stats[xarray]>=1' && \
+		$(NEWEST)/bin/pip list 2>/dev/null | grep -i -E '^(arviz-base|arviz-stats|xarray|numpy) ' && \
+		$(NEWEST)/bin/python -m pytest tests/test_inference.py tests/test_priors.py \
+			tests/test_report.py; \
+	else \
+		echo "test-newest: $(PYTHON_NEWEST) not found. ArviZ 1.x (arviz-base and arviz-stats >= 1)"; \
+		echo "needs Python >= 3.12, so the newest supported ArviZ cannot be tested with this"; \
+		echo "machine's Python; 'make test' covers the lowest supported line (0.8). Install"; \
+		echo "Python 3.12 or set PYTHON_NEWEST=/path/to/python3.12."; \
+	fi
+
 ## Static checks: ruff (pyflakes, bugbear, pydocstyle) and mypy on src/
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
@@ -37,6 +57,7 @@ lint: $(STAMP)
 ## Speed benchmarks (not part of the tests)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/forward.py
+	$(BIN)/python benchmarks/inference.py
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache
+	rm -rf $(VENV) $(NEWEST) demo-output .pytest_cache

@@ -48,7 +48,7 @@ from scipy import stats  # noqa: E402
 import bouncebayes as bb  # noqa: E402
 from bouncebayes._io import write_json  # noqa: E402
 from bouncebayes.data import demo_campaign, parse_experiment, synthesize  # noqa: E402
-from bouncebayes.inference import SamplerConfig, infer  # noqa: E402
+from bouncebayes.inference import GridConfig, infer  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "sbc.json"
 NAMES = ("mu", "eta")
@@ -70,7 +70,7 @@ def one_campaign(theta: np.ndarray, synth_seed: int, infer_seed: int, settings: 
     """Rank of the truth among the posterior draws, and 90 % interval coverage, per parameter."""
     exp = sbc_experiment(*theta, settings)
     c = synthesize(exp, seed=int(synth_seed), n=settings["n_trials"])
-    config = SamplerConfig(draws=settings["draws"], grid_points=settings["grid_points"])
+    config = GridConfig(draws=settings["draws"], points=settings["grid_points"])
     result = infer(exp, c.trials, likelihood="gaussian", sampler="grid", seed=int(infer_seed),
                    config=config)
     out = {"share_rolling_data": c.truth["share_rolling"]}

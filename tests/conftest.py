@@ -3,7 +3,7 @@
 import pytest
 
 from bouncebayes.data import demo_campaign
-from bouncebayes.inference import SamplerConfig
+from bouncebayes.inference import MHConfig
 
 
 @pytest.fixture(scope="session")
@@ -18,6 +18,6 @@ def small_run(tmp_path_factory, demo):
 
     out = tmp_path_factory.mktemp("run")
     outcome = run(demo.experiment, demo.trials, out, seed=11,
-                  config=SamplerConfig(draws=2000, chains=4), log=lambda m: None,
+                  config=MHConfig(draws=2000, chains=4), log=lambda m: None,
                   truth=demo.folder / "truth.json")
     return outcome

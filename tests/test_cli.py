@@ -175,9 +175,9 @@ def test_every_sampling_command_has_the_same_sampler_flags():
 def test_library_argument_names_become_flags_in_messages():
     from bouncebayes.cli._common import flag_names
 
-    assert flag_names("`burn_in` must be >= 0; raise `grid_points` or `draws`") == (
+    assert flag_names("`burn_in` must be >= 0; raise `points` or `draws`") == (
         "`--burn-in` must be >= 0; raise `--grid-points` or `--draws`")
-    assert flag_names("`ensemble_thin` must be >= 1") == "`--thin` must be >= 1"
+    assert flag_names("`thin` must be >= 1") == "`--thin` must be >= 1"
     assert flag_names("`min_points` and `youngs_modulus`", frozenset({"--min-points"})) == (
         "`--min-points` and `youngs_modulus`")
 
@@ -286,11 +286,10 @@ def test_outputs_carry_the_command_line_that_made_them(tmp_path, capsys):
     out = tmp_path / "campaign"
     argv = ["synth", str(EXAMPLE), "--n", "6", "--seed", "4", "--out", str(out)]
     assert main(argv) == 0
-    for name in ("trials.csv", "truth.json"):
-        record = read_provenance(out / name)
-        assert record["command"] == "bouncebayes " + " ".join(argv) and record["seed"] == 4
     trajectory = next((out / "trajectories").glob("*.csv"))
-    assert trajectory.read_text().startswith("t,x,y\n")  # left for other programs as it is
+    for path in (out / "trials.csv", out / "truth.json", trajectory):
+        record = read_provenance(path)
+        assert record["command"] == "bouncebayes " + " ".join(argv) and record["seed"] == 4
     table = tmp_path / "kin.csv"
     assert main(["kinematics", str(out / "trajectories"), "--experiment", str(EXAMPLE),
                  "--out", str(table)]) == 0

@@ -12,10 +12,6 @@ Each case asserts what the README promises:
   temporary file;
 - a time budget (in-process cases: pytest-timeout; cases that may hang inside compiled code run
   in a subprocess with a timeout).
-
-Cases that belong to other parts of the package (solver hangs, physical ranges of the model,
-plausibility gates on trajectories, memory planning, prior domains) are marked
-``xfail(strict=False)`` with the branch that fixes them, and turn on once it is merged.
 """
 
 from __future__ import annotations
@@ -42,10 +38,6 @@ DEMO = ROOT / "src" / "bouncebayes" / "demo"
 READ_ONLY = "/sys/bouncebayes-hostile"  # nothing can be made here, not even by root
 
 pytestmark = pytest.mark.timeout(300)
-
-
-def xfail(branch: str, why: str):
-    return pytest.mark.xfail(strict=False, reason=f"fixed in branch {branch}: {why}")
 
 
 # --------------------------------------------------------------------------- the world
@@ -339,7 +331,6 @@ def _global_cases():
     yield "report-empty-folder", ["report", "{dir}"], "emptydir", ()
 
 
-INFERENCE = "inference"  # the branch that owns the behaviour
 
 
 def _others_cases():
@@ -357,11 +348,11 @@ def _others_cases():
            "exp-huge_prior.toml", mark)
     yield ("infer-kde-identical-rows",
            ["infer", "{exp}", "{table:identical}", "--out", "{out}", "--likelihood", "kde"],
-           "table-identical.csv", (xfail(INFERENCE, "degenerate data named with the column"),))
+           "table-identical.csv", ())
     yield ("infer-rebound-faster-than-incidence",
            ["infer", "{exp}", "{table:faster}", "--out", "{out}", "--draws", "400"],
            "table-faster.csv",
-           (xfail(INFERENCE, "data no parameter value can produce are refused"),))
+           ())
     for kind in ("in_mm", "in_ms"):
         yield (f"kinematics-trajectories-{kind}",
                ["kinematics", "{trajdir:%s}" % kind, "--experiment", "{exp}", "--out",
@@ -493,8 +484,6 @@ def test_a_ball_of_1e300_kg_does_not_hang():
     assert_one_clean_error(proc.returncode, proc.stderr, "simulate", "mass")
 
 
-@xfail(INFERENCE, "memory planned: a grid that cannot fit is refused up front with the "
-                  "estimate")
 def test_a_grid_too_large_for_memory_is_refused_up_front(tmp_path):
     proc = cli("infer", str(EXAMPLE), str(DEMO / "trials.csv"), "--out", str(tmp_path / "o"),
                "--sampler", "grid", "--grid-points", "100000", timeout=120,
@@ -571,7 +560,7 @@ def test_a_killed_run_leaves_the_earlier_results_and_the_next_run_cleans_up(
         tmp_path, marker, delay, demo, monkeypatch):
     import bouncebayes.pipeline
     import bouncebayes.report
-    from bouncebayes.inference import SamplerConfig
+    from bouncebayes.inference import MHConfig
 
     out = _earlier_run(tmp_path / "out")
     before = snapshot(tmp_path)
@@ -586,7 +575,7 @@ def test_a_killed_run_leaves_the_earlier_results_and_the_next_run_cleans_up(
     # the next run into the same folder removes what the killed one left
     monkeypatch.setattr(bouncebayes.report, "make_figures", lambda *a, **k: [])
     bouncebayes.pipeline.run(demo.experiment, demo.trials, out, log=lambda m: None,
-                             config=SamplerConfig(draws=400, chains=2))
+                             config=MHConfig(draws=400, chains=2))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     assert (out / "notes.txt").read_text() == "the user's own notes"
 

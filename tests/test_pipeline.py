@@ -19,7 +19,7 @@ from bouncebayes import _io
 from bouncebayes._provenance import (file_sha256, provenance, read_provenance, stamp,
                                      stamp_tree, tree_sha256)
 from bouncebayes.data import load_experiment, load_trials
-from bouncebayes.inference import SamplerConfig
+from bouncebayes.inference import MHConfig
 
 
 def snapshot(folder: Path) -> dict:
@@ -135,7 +135,7 @@ def test_the_next_staged_output_cleans_what_a_killed_one_left(tmp_path):
 def test_provenance_records_what_made_a_file(tmp_path):
     data = make_folder(tmp_path / "traj", {"b1.csv": "t,x,y\n", "sub/b2.csv": "2",
                                            ".hidden": "skipped"})
-    config = SamplerConfig(draws=500)
+    config = MHConfig(draws=500)
     p = provenance(inputs={"experiment": EXAMPLE, "data": data, "none": None}, seed=7,
                    config=config, argv=["bouncebayes", "run", "my file.toml"])
     assert p["bouncebayes_version"] == bb.__version__ and p["seed"] == 7
@@ -201,11 +201,17 @@ def test_every_format_carries_the_stamp_and_stays_readable(tmp_path, demo):
     assert not stamp(tmp_path / "report.html", record)
 
 
-def test_trajectory_files_are_not_stamped(tmp_path):
-    make_folder(tmp_path, {"trajectories/b1.csv": "t,x,y\n0,0,0\n", "summary.json": "{}"})
-    stamped = stamp_tree(tmp_path, provenance(inputs={}))
-    assert [p.name for p in stamped] == ["summary.json"]
-    assert (tmp_path / "trajectories" / "b1.csv").read_text() == "t,x,y\n0,0,0\n"
+def test_trajectory_files_are_stamped_and_still_read(tmp_path):
+    from bouncebayes.data import read_trajectory_table
+
+    make_folder(tmp_path, {"trajectories/b1.csv": "t,x,y\n0,0,0\n0.001,1,1\n",
+                           "summary.json": "{}"})
+    record = provenance(inputs={}, seed=5)
+    stamped = stamp_tree(tmp_path, record)
+    assert sorted(p.name for p in stamped) == ["b1.csv", "summary.json"]
+    traj = tmp_path / "trajectories" / "b1.csv"
+    assert read_provenance(traj) == record
+    assert read_trajectory_table(traj).columns["t"].tolist() == [0.0, 0.001]
 
 
 def test_every_file_of_a_run_carries_the_run_provenance(small_run):
@@ -244,7 +250,7 @@ def test_a_run_that_fails_at_the_figures_stage_changes_nothing(tmp_path, demo, m
 
     monkeypatch.setattr(bouncebayes.report, "make_figures", broken)
     with pytest.raises(ValueError, match="cannot draw"):
-        bb.pipeline.run(demo.experiment, demo.trials, out, config=SamplerConfig(draws=400),
+        bb.pipeline.run(demo.experiment, demo.trials, out, config=MHConfig(draws=400),
                         log=lambda m: None)
     assert snapshot(tmp_path) == before
 
@@ -255,7 +261,7 @@ def test_a_run_keeps_the_users_files_of_an_earlier_run_folder(tmp_path, demo, mo
     out = _earlier_run(tmp_path / "out")
     monkeypatch.setattr(bouncebayes.report, "make_figures", lambda *a, **k: [])
     messages = []
-    bb.pipeline.run(demo.experiment, demo.trials, out, config=SamplerConfig(draws=400),
+    bb.pipeline.run(demo.experiment, demo.trials, out, config=MHConfig(draws=400),
                     log=messages.append, seed=2)
     assert (out / "notes.txt").read_text() == "my notes"
     assert (out / "extra" / "plan.md").read_text() == "mine too"

@@ -30,13 +30,14 @@ _LAZY = {
     "rebound_density": "density", "summarize": "density",
     "fit_kinematics": "kinematics", "kinematics_from_folder": "kinematics",
     "read_trajectory": "kinematics",
-    "InferenceResult": "inference", "SamplerConfig": "inference", "infer": "inference",
+    "InferenceResult": "inference", "MHConfig": "inference", "EnsembleConfig": "inference",
+    "GridConfig": "inference", "infer": "inference", "BounceModel": "model",
 }
 _SUBMODULES = ("model", "data", "tracking", "kinematics", "density", "inference",
                "propagation", "plots", "report", "pipeline", "cli")
 
-__all__ = ["__version__", "Ball", "Bounces", "Experiment", "InferenceResult", "PAPER_BALL",
-           "SamplerConfig", "SimulationWarning", "SolverConfig", "Status", "Trials",
+__all__ = ["__version__", "Ball", "BounceModel", "Bounces", "EnsembleConfig", "Experiment",
+           "GridConfig", "InferenceResult", "MHConfig", "PAPER_BALL", "SimulationWarning", "SolverConfig", "Status", "Trials",
            "fit_kinematics", "hertz_elastic_impact", "infer", "kinematics_from_folder",
            "load_experiment", "load_trials", "read_trajectory", "rebound_density",
            "rigid_body_rebound", "simulate", "simulate_history", "summarize", "synthesize"]
@@ -64,7 +65,8 @@ if TYPE_CHECKING:  # what static checkers and IDEs see
     from ._version import __version__
     from .data import Experiment, Trials, load_experiment, load_trials, synthesize
     from .density import rebound_density, summarize
-    from .inference import InferenceResult, SamplerConfig, infer
+    from .inference import EnsembleConfig, GridConfig, InferenceResult, MHConfig, infer
     from .kinematics import fit_kinematics, kinematics_from_folder, read_trajectory
-    from .model import (PAPER_BALL, Ball, Bounces, SimulationWarning, SolverConfig, Status,
+    from .model import (PAPER_BALL, Ball, BounceModel, Bounces, SimulationWarning, SolverConfig,
+                        Status,
                         hertz_elastic_impact, rigid_body_rebound, simulate, simulate_history)

@@ -4,9 +4,9 @@
 file in the form that file's format allows, and :func:`read_provenance` reads it back:
 
 - JSON (an object): a ``"provenance"`` key;
-- CSV, text and TOML: a first line ``# provenance: {...}`` (one line of JSON; the readers of
-  this package skip ``#`` lines). Trajectory files (``t,x,y``) are not stamped: other programs
-  expect the header first; the JSON record beside them holds their provenance;
+- CSV, text and TOML: a first line ``# provenance: {...}`` (one line of JSON,
+  :func:`comment_line` / :func:`parse_comment_line`; the readers of this package skip ``#``
+  lines, and so do spreadsheet and pandas readers told ``comment="#"``);
 - NetCDF (``.nc``): a ``provenance`` attribute of the root group (JSON text);
 - NumPy archives (``.npz``): a ``provenance`` entry (a string array);
 - PNG: a ``tEXt`` chunk with the keyword ``provenance``; SVG: a ``<!-- provenance: ... -->``
@@ -129,8 +129,36 @@ def jsonable(value: Any) -> Any:
 
 
 def one_line(record: Mapping) -> str:
-    """The record as one line of ASCII JSON, safe inside an XML comment (no ``--``)."""
-    return json.dumps(record, ensure_ascii=True, sort_keys=False).replace("--", "-\\u002d")
+    """The record as one line of ASCII JSON, safe inside an XML comment (no ``--``).
+
+    Raises:
+        TypeError: ``record`` is not a mapping, or holds what JSON cannot write.
+    """
+    if not isinstance(record, Mapping):
+        raise TypeError(f"`provenance` must be a dict; got {type(record).__name__}")
+    try:
+        text = json.dumps(dict(record), ensure_ascii=True, separators=(",", ":"), allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"`provenance` must be JSON-serialisable (strings, numbers, lists, "
+                        f"dicts; finite numbers); {exc}") from None
+    return text.replace("--", "-\\u002d")
+
+
+def comment_line(record: Mapping) -> str:
+    """The provenance comment line of a text file (without the newline)."""
+    return _COMMENT + one_line(record)
+
+
+def parse_comment_line(line: str) -> dict | None:
+    """The record of a provenance comment line; None if the line is not one."""
+    text = line.strip()
+    if not text.startswith(_COMMENT.strip()):
+        return None
+    try:
+        value = json.loads(text[len(_COMMENT.strip()):].strip())
+    except ValueError:
+        return None
+    return value if isinstance(value, dict) else None
 
 
 # --------------------------------------------------------------------------- stamping
@@ -148,11 +176,9 @@ def stamp(path: str | os.PathLike, record: Mapping) -> bool:
 
 
 def stamp_tree(folder: str | os.PathLike, record: Mapping, *,
-               exclude: Iterable[str] = (TRAJECTORIES,)) -> list[Path]:
+               exclude: Iterable[str] = ()) -> list[Path]:
     """Stamp every file under ``folder`` that has a place for it, except in the sub-folders
-    named in ``exclude``; returns those stamped. Trajectory files are left as they are by
-    default: other programs read ``t,x,y`` as their first line, and the record beside them
-    (``truth.json``, ``<name>.track.json``, ``summary.json``) holds their provenance."""
+    named in ``exclude``; returns those stamped."""
     root = Path(folder)
     skip = set(exclude)
     return [p for p in sorted(root.rglob("*")) if p.is_file()
@@ -167,8 +193,7 @@ def read_provenance(path: str | os.PathLike) -> dict | None:
         obj = json.loads(path.read_text(encoding="utf-8"))
         return obj.get(KEY) if isinstance(obj, dict) else None
     if suffix in _TEXT:
-        first = path.read_text(encoding="utf-8").split("\n", 1)[0]
-        return json.loads(first[len(_COMMENT):]) if first.startswith(_COMMENT) else None
+        return parse_comment_line(path.read_text(encoding="utf-8").split("\n", 1)[0])
     if suffix == ".npz":
         import numpy as np
 
@@ -206,7 +231,7 @@ def _stamp_text(path: Path, record: Mapping) -> None:
     text = path.read_text(encoding="utf-8")
     if text.startswith(_COMMENT):
         text = text.split("\n", 1)[1] if "\n" in text else ""
-    write_text(path, f"{_COMMENT}{one_line(record)}\n{text}")
+    write_text(path, f"{comment_line(record)}\n{text}")
 
 
 def _stamp_npz(path: Path, record: Mapping) -> None:

@@ -175,7 +175,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         likelihood: as :func:`bouncebayes.inference.infer`.
         sampler: as :func:`bouncebayes.inference.infer`.
         seed: as :func:`bouncebayes.inference.infer`; recorded in every file.
-        config: the sampler settings (:class:`bouncebayes.inference.SamplerConfig`).
+        config: the sampler's configuration (:class:`bouncebayes.inference.MHConfig`,
+            :class:`~bouncebayes.inference.EnsembleConfig` or :class:`~bouncebayes.inference.GridConfig`).
         noise: as :func:`bouncebayes.inference.infer`.
         progress: progress bars for the long stages.
         log: receives one line per stage and the stages' messages.
@@ -326,17 +327,18 @@ def warmup(log: Callable[[str], None] = print) -> float:
     Numba caches compiled kernels on disk (``cache=True``); the first run after an install
     otherwise spends most of its time compiling."""
     from .data import demo_campaign
-    from .inference import SamplerConfig
+    from .inference import sampler_config
 
     start = time.perf_counter()
     demo = demo_campaign()
-    config = SamplerConfig(draws=200, chains=2, burn_in=20, walkers=8, ensemble_burn_in=10,
-                           grid_points=16)
+    configs = {"mh": sampler_config("mh", draws=200, chains=2, burn_in=20),
+               "ensemble": sampler_config("ensemble", draws=200, walkers=8, burn_in=10),
+               "grid": sampler_config("grid", draws=200, points=16)}
     with tempfile.TemporaryDirectory(prefix="bouncebayes-warmup-") as tmp:
         for likelihood, sampler in _WARMUP_CASES:
             log(f"compiling: {likelihood} likelihood, {sampler} sampler ...")
             _warm_once(demo, Path(tmp) / f"{likelihood}-{sampler}", likelihood, sampler,
-                       config)
+                       configs[sampler])
     return time.perf_counter() - start
 
 

@@ -16,11 +16,8 @@ from ._io import write_text
 from ._provenance import provenance as make_provenance
 from ._provenance import provenance_rows
 from .data import load_experiment, load_trials
-from .inference import InferenceResult, LogPosterior, SamplerConfig
-from .inference._infer import SAMPLER_MEANINGS
-from .inference._likelihood import MEANINGS, noise_priors
-from .inference._samplers import Draws
-from .inference._summary import ParameterSummary, import_arviz
+from .inference import InferenceResult, load_inference
+from .inference import MEANINGS, SAMPLER_MEANINGS, ParameterSummary
 from .pipeline import EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE
 
 
@@ -83,24 +80,28 @@ def load_result(folder: str | Path) -> InferenceResult:
     summary = load_summary(folder / "summary.json")
     experiment = load_experiment(folder / EXPERIMENT_FILE)
     trials = load_trials(folder / TRIALS_FILE, experiment)
-    names = tuple(summary["parameters"])
-    samples, stats = load_posterior(folder / "posterior.nc", names)
+    _parameter_summaries(folder / "summary.json", summary["parameters"])
     _check_grid(folder / "grid.npz")
-    extra = noise_priors(trials)
-    priors = tuple(experiment.priors[n] if n in experiment.priors else extra[n] for n in names)
-    units = tuple(p["unit"] for p in summary["parameters"].values())
-    params = _parameter_summaries(folder / "summary.json", summary["parameters"])
-    settings = {k: v for k, v in summary["sampler_settings"].items() if k != "result"}
+    return _load_inference(folder, summary, experiment, trials)
+
+
+def _load_inference(folder: Path, summary: dict, experiment, trials) -> InferenceResult:
+    """:func:`bouncebayes.inference.load_inference`, a damaged file named."""
+    path = folder / "posterior.nc"
     try:
-        config = SamplerConfig(**settings)
+        return load_inference(path, summary, experiment, trials)
+    except InputFileError:
+        raise
+    except KeyError as exc:
+        raise InputFileError(path, f"damaged: no variable {exc} in the posterior (the summary "
+                                   f"lists {', '.join(summary['parameters'])}); {_RERUN}") \
+            from None
     except (TypeError, ValueError) as exc:
-        raise InputFileError(folder / "summary.json", f"damaged: {exc}",
+        raise InputFileError(folder / "summary.json", f"damaged: {_short(exc)}; {_RERUN}",
                              field="sampler_settings") from None
-    return InferenceResult(experiment, trials, summary["likelihood"], summary["sampler"],
-                           summary["seed"], config, LogPosterior(names, priors, units, None),
-                           Draws(samples, stats, summary["sampler_settings"].get("result", {})),
-                           params, summary["regimes"], tuple(summary["warnings"]),
-                           summary["likelihood_details"], summary["seconds"])
+    except Exception as exc:  # any reader failure means a damaged file; name it
+        raise InputFileError(path, f"damaged: cannot be read as NetCDF ({_short(exc)}); the "
+                                   f"file may be empty or truncated; {_RERUN}") from None
 
 
 def load_summary(path: Path) -> dict:
@@ -153,25 +154,6 @@ def _parameter_summaries(path: Path, parameters: dict) -> tuple[ParameterSummary
             raise InputFileError(path, f"damaged: {exc}; {_RERUN}",
                                  field=f"parameters.{name}") from None
     return tuple(out)
-
-
-def load_posterior(path: Path, names: tuple[str, ...]) -> tuple[np.ndarray, dict]:
-    """Draws (chains, draws, d) of ``names`` and the sample statistics of ``posterior.nc``."""
-    try:
-        az = import_arviz()
-        idata = az.from_netcdf(str(path))
-        samples = np.stack([idata.posterior[n].values for n in names], axis=-1)
-        stats = {k: idata.sample_stats[k].values for k in idata.sample_stats.data_vars}
-    except KeyError as exc:
-        raise InputFileError(path, f"damaged: no variable {exc} in the posterior (the summary "
-                                   f"lists {', '.join(names)}); {_RERUN}") from None
-    except Exception as exc:  # any reader failure means a damaged file; name it
-        raise InputFileError(path, f"damaged: cannot be read as NetCDF ({_short(exc)}); the "
-                                   f"file may be empty or truncated; {_RERUN}") from None
-    if samples.ndim != 3 or samples.shape[1] == 0:
-        raise InputFileError(path, f"damaged: the posterior has shape {samples.shape}, "
-                                   f"expected (chains, draws) per parameter; {_RERUN}")
-    return samples, stats
 
 
 def _check_grid(path: Path) -> None:

@@ -146,8 +146,7 @@ def log(message: str) -> None:
 
 # library argument -> the flag that sets it
 SAMPLER_FLAGS = {"draws": "--draws", "chains": "--chains", "burn_in": "--burn-in",
-                 "ensemble_burn_in": "--burn-in", "thin": "--thin", "ensemble_thin": "--thin",
-                 "walkers": "--walkers", "grid_points": "--grid-points"}
+                 "thin": "--thin", "walkers": "--walkers", "points": "--grid-points"}
 _FLAG_NAME = re.compile(r"`(" + "|".join(sorted(SAMPLER_FLAGS, key=len, reverse=True)) + r")`")
 
 
@@ -168,9 +167,9 @@ _SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)+)`")
 
 def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
     """The flags of every command that samples a posterior (infer, run, demo)."""
-    from ..inference import LIKELIHOODS, SAMPLERS, SamplerConfig
+    from ..inference import LIKELIHOODS, SAMPLERS, EnsembleConfig, MHConfig
 
-    d = SamplerConfig()
+    d, e = MHConfig(), EnsembleConfig()
     g = p.add_argument_group("inference")
     g.add_argument("--likelihood", choices=LIKELIHOODS, default="gaussian",
                    help="gaussian: every bounce = model + measurement noise (the uncertainty "
@@ -191,13 +190,13 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"mh chains (default {d.chains})")
     g.add_argument("--burn-in", type=integer(), metavar="N",
                    help=f"iterations (mh, default {d.burn_in}) or steps (ensemble, default "
-                        f"{d.ensemble_burn_in}) discarded at the start; the mh proposal is "
+                        f"{e.burn_in}) discarded at the start; the mh proposal is "
                         f"tuned meanwhile")
     g.add_argument("--thin", type=integer(), metavar="N",
                    help=f"keep every N-th iteration (mh, default {d.thin}) or step (ensemble, "
-                        f"default {d.ensemble_thin})")
+                        f"default {e.thin})")
     g.add_argument("--walkers", type=integer(), metavar="N",
-                   help=f"ensemble walkers (default {d.walkers})")
+                   help=f"ensemble walkers (default {e.walkers})")
     g.add_argument("--grid-points", type=integer(), metavar="N",
                    help="grid points per parameter (default 2048 / 512 / 96 for 1 / 2 / 3 "
                         "parameters)")
@@ -205,13 +204,20 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def sampler_config(args: argparse.Namespace):
-    """The sampler settings the flags ask for; library defaults for the others."""
-    from ..inference import SamplerConfig
+    """The chosen sampler's configuration from the flags (library defaults for the others); a
+    flag that does not apply to the chosen sampler is refused, naming the samplers it does."""
+    from dataclasses import fields
 
-    given = {"draws": args.draws, "chains": args.chains, "walkers": args.walkers,
-             "grid_points": args.grid_points}
-    if args.sampler == "ensemble":
-        given |= {"ensemble_burn_in": args.burn_in, "ensemble_thin": args.thin}
-    else:
-        given |= {"burn_in": args.burn_in, "thin": args.thin}
-    return SamplerConfig(**{k: v for k, v in given.items() if v is not None})
+    from ..inference import SAMPLER_CONFIGS
+    from ..inference import sampler_config as make_config
+
+    given = {"draws": args.draws, "chains": args.chains, "burn_in": args.burn_in,
+             "thin": args.thin, "walkers": args.walkers, "points": args.grid_points}
+    given = {k: v for k, v in given.items() if v is not None}
+    for name in given:
+        users = [s for s, cls in SAMPLER_CONFIGS.items() if name in {f.name for f in fields(cls)}]
+        if args.sampler not in users:
+            raise UserError(f"`{SAMPLER_FLAGS[name]}` applies to the {' and '.join(users)} "
+                            f"sampler{'s' if len(users) > 1 else ''}; this command uses "
+                            f"`--sampler {args.sampler}`")
+    return make_config(args.sampler, **given)

@@ -12,9 +12,6 @@ from ._priors import Prior as Prior
 from ._priors import Uniform as Uniform
 from ._schema import PARAMETERS as PARAMETERS
 from ._schema import SECTIONS as SECTIONS
-from ._comment import PROVENANCE_PREFIX as PROVENANCE_PREFIX
-from ._comment import parse_provenance as parse_provenance
-from ._comment import provenance_comment as provenance_comment
 from ._trials import LABEL_COLUMNS as LABEL_COLUMNS
 from ._trials import MEASURED as MEASURED
 from ._trials import SYSTEMATIC as SYSTEMATIC
@@ -53,10 +50,7 @@ __all__ = [
     "Normal",
     "PARAMETERS",
     "parse_experiment",
-    "parse_provenance",
     "Prior",
-    "provenance_comment",
-    "PROVENANCE_PREFIX",
     "QUALITY_COLUMNS",
     "read_track_sidecar",
     "read_trajectory_table",

@@ -137,24 +137,26 @@ def _position(h, t, experiment: Experiment):
     return x, y
 
 
-def write_campaign(campaign: Campaign, out: str | os.PathLike, *,
-                   trajectories: bool = True) -> dict[str, Path]:
+def write_campaign(campaign: Campaign, out: str | os.PathLike, *, trajectories: bool = True,
+                   provenance: dict | None = None) -> dict[str, Path]:
     """Write ``trials.csv``, ``truth.json`` and ``trajectories/bounce_NNN.csv`` under ``out``.
 
-    The table and every trajectory carry a provenance comment: the package version, the seed
-    and the experiment file with its SHA-256 (the truth is in ``truth.json``).
+    The table and every trajectory carry ``provenance`` as a comment line (default: the record
+    of :func:`bouncebayes._provenance.provenance` with the experiment file and the seed; the
+    truth itself is in ``truth.json``).
     """
+    from .._provenance import provenance as make_provenance
+
     out = Path(out)
     truth = campaign.truth
-    provenance = {"bouncebayes_version": truth["bouncebayes_version"], "stage": "synth",
-                  "seed": campaign.seed, "experiment": truth["experiment"],
-                  "experiment_sha256": truth["experiment_sha256"], "truth": "truth.json"}
+    if provenance is None:
+        provenance = make_provenance(inputs={"experiment": truth["experiment"]},
+                                     seed=campaign.seed, config={"stage": "synth"})
     paths = {"trials": write_trials(out / "trials.csv", campaign.trials, provenance=provenance),
              "truth": write_json(out / "truth.json", truth)}
     if trajectories:
         folder = out / "trajectories"
         for label, traj in zip(campaign.trials.labels, campaign.trajectories, strict=True):
-            write_trajectory(folder / f"{label}.csv", *traj.T,
-                             provenance=provenance | {"trial": label, "truth": "../truth.json"})
+            write_trajectory(folder / f"{label}.csv", *traj.T, provenance=provenance)
         paths["trajectories"] = folder
     return paths

@@ -36,7 +36,7 @@ import numpy as np
 
 from .._errors import InputFileError
 from .._io import write_text
-from ._comment import parse_provenance, provenance_comment
+from .._provenance import comment_line, parse_comment_line
 
 POSITION_COLUMNS = ("t", "x", "y", "z")  # z optional
 REQUIRED_COLUMNS = ("t", "x", "y")
@@ -133,7 +133,7 @@ def write_trajectory(path: str | os.PathLike, t, x, y, z=None, *,
         if bad.size:
             raise ValueError(f"`{name}` must be finite (write tracked frames only); got "
                              f"{float(arrays[name][bad[0]])!r} at index {int(bad[0])}")
-    lines = [] if provenance is None else [provenance_comment(provenance)]
+    lines = [] if provenance is None else [comment_line(provenance)]
     lines.append(",".join(arrays))
     lines += [",".join("" if math.isnan(v) else repr(v) for v in row)
               for row in zip(*(a.tolist() for a in arrays.values()), strict=True)]
@@ -187,7 +187,7 @@ def read_trajectory_table(path: str | os.PathLike) -> TrajectoryTable:
     """
     source = os.fspath(path)
     lines = _read_lines(path)
-    provenance = next((p for p in map(parse_provenance, lines) if p is not None), None)
+    provenance = next((p for p in map(parse_comment_line, lines) if p is not None), None)
     start, delimiter, names = _find_header(source, lines)
     index = _column_index(source, start, names)
     values: dict[str, list[float]] = {n: [] for n in index}

@@ -24,7 +24,7 @@ import numpy as np
 from .._errors import InputFileError
 from .._io import write_text
 from .._validate import in_range_mask, range_text
-from ._comment import parse_provenance, provenance_comment
+from .._provenance import comment_line, parse_comment_line
 from ._experiment import Experiment
 
 
@@ -213,7 +213,7 @@ def _read_rows(path: Path) -> tuple[bytes, list[tuple[int, list[str]]], dict | N
     rows, provenance = [], None
     for i, line in enumerate(text.splitlines()):
         if line.lstrip().startswith("#"):  # a comment: decided on the raw text
-            provenance = provenance or parse_provenance(line)
+            provenance = provenance or parse_comment_line(line)
             continue
         row = next(csv.reader([line]), [])
         if row and any(c.strip() for c in row):
@@ -296,7 +296,7 @@ def write_trials(path: str | os.PathLike, trials: Trials, *,
     _check_writable(trials.labels, table)
     provenance = trials.provenance if provenance is None else provenance
     order = [*cols, *se_cols, *extra]
-    lines = [] if provenance is None else [provenance_comment(provenance)]
+    lines = [] if provenance is None else [comment_line(provenance)]
     lines.append(",".join(["trial", *order]))
     lines += [",".join([_label_cell(label), *(_text(float(table[c][i])) for c in order)])
               for i, label in enumerate(trials.labels)]

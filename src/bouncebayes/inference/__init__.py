@@ -1,16 +1,54 @@
-"""Bayesian calibration: likelihoods, samplers, diagnostics and the posterior summary."""
+"""Bayesian calibration: likelihoods, samplers, diagnostics and the posterior summary.
 
+The entry point is :func:`infer`; each sampler has its own configuration (:class:`MHConfig`,
+:class:`EnsembleConfig`, :class:`GridConfig`) and is also available as a pure ``(init, step)``
+pair (``mh_init``/``mh_step``, ``ensemble_init``/``ensemble_step``) with typed state records.
+"""
+
+from ._config import CONFIGS as SAMPLER_CONFIGS
+from ._config import SAMPLERS as SAMPLERS
+from ._config import EnsembleConfig as EnsembleConfig
+from ._config import GridConfig as GridConfig
+from ._config import MHConfig as MHConfig
+from ._config import sampler_config as sampler_config
+from ._draws import Draws as Draws
+from ._ensemble import EnsembleInfo as EnsembleInfo
+from ._ensemble import EnsembleRun as EnsembleRun
+from ._ensemble import EnsembleState as EnsembleState
+from ._ensemble import init as ensemble_init
+from ._ensemble import step as ensemble_step
 from ._forward import Forward as Forward
+from ._grid import GridDensity as GridDensity
+from ._grid import GridRun as GridRun
+from ._infer import SAMPLER_MEANINGS as SAMPLER_MEANINGS
 from ._infer import InferenceResult as InferenceResult
 from ._infer import format_table as format_table
 from ._infer import infer as infer
-from ._infer import inference_data as inference_data
-from ._infer import write_outputs as write_outputs
+from ._infer import load_inference as load_inference
 from ._likelihood import LIKELIHOODS as LIKELIHOODS
 from ._likelihood import MEANINGS as MEANINGS
-from ._posterior import SAMPLERS as SAMPLERS
+from ._likelihood import noise_priors as noise_priors
+from ._memory import BYTES_PER_BOUNCE as BYTES_PER_BOUNCE
+from ._memory import DEFAULT_MEMORY_BUDGET as DEFAULT_MEMORY_BUDGET
+from ._memory import MemoryBudgetError as MemoryBudgetError
+from ._mh import MHInfo as MHInfo
+from ._mh import MHRun as MHRun
+from ._mh import MHState as MHState
+from ._mh import init as mh_init
+from ._mh import step as mh_step
+from ._outputs import inference_data as inference_data
+from ._outputs import write_outputs as write_outputs
+from ._pass import Replicates as Replicates
 from ._posterior import LogPosterior as LogPosterior
-from ._posterior import SamplerConfig as SamplerConfig
+from ._summary import ParameterSummary as ParameterSummary
+from ._summary import marginal_modes as marginal_modes
 
-__all__ = ["Forward", "InferenceResult", "LIKELIHOODS", "LogPosterior", "MEANINGS", "SAMPLERS",
-           "SamplerConfig", "format_table", "infer", "inference_data", "write_outputs"]
+__all__ = [
+    "BYTES_PER_BOUNCE", "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_CONFIGS", "SAMPLER_MEANINGS", "Draws",
+    "EnsembleConfig", "EnsembleInfo", "EnsembleRun", "EnsembleState", "Forward", "GridConfig",
+    "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",
+    "MHState", "MemoryBudgetError", "ParameterSummary", "Replicates",
+    "ensemble_init", "ensemble_step", "format_table", "infer", "inference_data",
+    "load_inference", "marginal_modes", "mh_init", "mh_step", "noise_priors",
+    "sampler_config", "write_outputs",
+]

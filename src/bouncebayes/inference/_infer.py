@@ -2,32 +2,37 @@
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from .._io import json_text, write_all
 from .._validate import check_choice
 from .._version import __version__
 from ..data import Experiment, Trials
-from ._likelihood import LIKELIHOODS, MEANINGS, NOISE_PARAMETERS, NOISE_UNITS, make_likelihood
-from ._likelihood import noise_priors
-from ._posterior import SAMPLERS, LogPosterior, SamplerConfig
-from ._samplers import Draws, sample_ensemble, sample_grid, sample_mh
-from ._summary import (ParameterSummary, diagnostics, import_arviz, summarize_parameter,
-                       warnings_for)
+from ._checks import data_warnings
+from ._config import SAMPLERS, AnyConfig, config_for, sampler_config, sampler_of
+from ._draws import Draws
+from ._ensemble import EnsembleRun, sample_ensemble
+from ._grid import GridRun, check_grid_memory, grid_bytes, sample_grid
+from ._likelihood import LIKELIHOODS, MEANINGS, make_likelihood, noise_priors
+from ._memory import (BYTES_PER_BOUNCE, BYTES_PER_TRIAL, DEFAULT_MEMORY_BUDGET, RESIDENT_SHARE,
+                      batch_rows, check_memory_budget, require)
+from ._mh import MHRun, sample_mh
+from ._outputs import read_posterior
+from ._pass import PosteriorPass, Replicates, posterior_pass
+from ._posterior import LogPosterior
+from ._summary import ParameterSummary, diagnostics, summarize_parameter, warnings_for
 
-SAMPLER_FUNCTIONS = {"mh": sample_mh, "ensemble": sample_ensemble, "grid": sample_grid}
 SAMPLER_MEANINGS = {
     "mh": "random-walk Metropolis–Hastings (the paper's), several chains from dispersed starts",
     "ensemble": "emcee's affine-invariant ensemble sampler",
     "grid": "exact quadrature on a grid over the prior box (no Monte Carlo error beyond the "
             "grid spacing)",
 }
-REGIME_DRAWS = 2000  # posterior draws re-simulated to find the friction regime
+RUN_TYPES: dict[str, Any] = {"mh": MHRun, "ensemble": EnsembleRun, "grid": GridRun}
 
 
 @dataclass(frozen=True)
@@ -39,7 +44,7 @@ class InferenceResult:
     likelihood: str
     sampler: str
     seed: int
-    config: SamplerConfig
+    config: AnyConfig
     posterior: LogPosterior
     draws: Draws
     parameters: tuple[ParameterSummary, ...]
@@ -47,10 +52,18 @@ class InferenceResult:
     warnings: tuple[str, ...]
     likelihood_info: dict
     seconds: float
+    log_likelihood: np.ndarray | None = None  #: (chains, draws, observations)
+    replicates: Replicates | None = None
+    memory_budget: int = DEFAULT_MEMORY_BUDGET
 
     @property
     def names(self) -> tuple[str, ...]:
         return self.posterior.names
+
+    @property
+    def observations(self) -> tuple[str, ...]:
+        """What the pointwise log-likelihood is over: the trials, or the whole campaign."""
+        return self.trials.labels if self.likelihood == "gaussian" else ("campaign",)
 
     def samples(self, name: str) -> np.ndarray:
         """All draws of one parameter, chains flattened."""
@@ -58,137 +71,160 @@ class InferenceResult:
 
     def summary(self) -> dict:
         """The content of summary.json."""
-        info = {k: v for k, v in self.draws.info.items() if k != "grid"}
         return {
             "parameters": {p.name: p.to_dict() for p in self.parameters},
             "likelihood": self.likelihood, "likelihood_meaning": MEANINGS[self.likelihood],
             "likelihood_details": self.likelihood_info,
             "sampler": self.sampler, "sampler_meaning": SAMPLER_MEANINGS[self.sampler],
-            "sampler_settings": self.config.__dict__ | {"result": info},
-            "seed": self.seed, "n_draws": int(self.draws.samples.shape[0]
-                                              * self.draws.samples.shape[1]),
+            "sampler_settings": self.config.to_dict() | {"result": self.draws.info.to_dict()},
+            "seed": self.seed, "n_draws": self.draws.n_draws,
             "regimes": self.regimes, "warnings": list(self.warnings),
             "data": {"file": self.trials.source, "sha256": self.trials.sha256,
                      "n_trials": self.trials.n},
             "experiment": {"file": self.experiment.source, "name": self.experiment.name,
                            "sha256": self.experiment.text_sha256,
                            "normal_law": self.experiment.normal_law},
+            "memory_budget_bytes": self.memory_budget,
             "bouncebayes_version": __version__, "seconds": self.seconds,
         }
 
 
 def infer(experiment: Experiment, trials: Trials, *, likelihood: str = "gaussian",
-          sampler: str = "mh", seed: int = 0, config: SamplerConfig | None = None,
-          noise: str = "auto", progress: bool = False) -> InferenceResult:
+          sampler: str | None = None, seed: int = 0, config: Any = None, noise: str = "auto",
+          progress: bool = False,
+          memory_budget: int = DEFAULT_MEMORY_BUDGET) -> InferenceResult:
     """Posterior of the experiment's inferred parameters given the trials.
 
     Arguments:
+        experiment: the experiment (ball, incidence, priors of the inferred parameters).
+        trials: the measured bounces.
         likelihood: ``"gaussian"`` (measurement model, default), ``"kde"`` (the paper's) or
-            ``"consistent"`` (data-consistent inversion); see MODEL.md §5 and the README.
+            ``"consistent"`` (data-consistent inversion); see ``docs/model.md`` and the README.
         sampler: ``"mh"`` (the paper's Metropolis–Hastings), ``"ensemble"`` (emcee) or
-            ``"grid"`` (exact quadrature, up to 3 parameters).
+            ``"grid"`` (exact quadrature, up to 3 parameters); default: the sampler of
+            ``config``, else ``"mh"``.
         seed: the only source of randomness; same seed and inputs, identical draws.
+        config: the sampler's settings, :class:`MHConfig`, :class:`EnsembleConfig` or
+            :class:`GridConfig` (default: the sampler's defaults; the paper's for mh).
         noise: for ``gaussian``: ``"given"`` (table standard errors), ``"inferred"`` (noise
             levels ``sigma_speed``, ``sigma_angle`` sampled with log-uniform priors) or
             ``"auto"`` (given when every trial has them).
+        progress: show progress bars.
+        memory_budget: bytes the inference may hold at once (default 2 GiB). Large tables and
+            grids are worked through in batches within it; a request that cannot fit (a grid
+            too fine, too many draws) is refused up front with the estimate.
     """
-    check_choice("likelihood", likelihood, LIKELIHOODS)
-    check_choice("sampler", sampler, SAMPLERS)
-    check_choice("noise", noise, ("auto", "given", "inferred"))
+    sampler = sampler if sampler is not None else (sampler_of(config) or "mh")
+    _check_arguments(likelihood, sampler, noise, seed)
+    budget = check_memory_budget(memory_budget)
+    config = config_for(sampler, config)
     names = experiment.parameter_names
     if not names:
         raise ValueError(f"{experiment.source}: no [parameters.NAME] table: nothing to infer")
-    config = config or SamplerConfig()
+    work = budget - _plan(likelihood, sampler, config, len(names), trials, budget)
+    notes = data_warnings(experiment, trials)
     start = time.perf_counter()
-    rng_likelihood, rng_sampler, rng_regime = np.random.default_rng(seed).spawn(3)
+    rng_likelihood, rng_sampler, rng_pass = np.random.default_rng(seed).spawn(3)
     like = make_likelihood(likelihood, experiment, trials, names, rng=rng_likelihood,
-                           noise=noise)
-    all_names, priors, units = names, [experiment.priors[n] for n in names], \
-        [experiment.unit(n) for n in names]
-    if getattr(like, "noise", "given") == "inferred":
-        extra = noise_priors(trials)
-        all_names = names + NOISE_PARAMETERS
-        priors += [extra[n] for n in NOISE_PARAMETERS]
-        units += [NOISE_UNITS[n] for n in NOISE_PARAMETERS]
-    post = LogPosterior(tuple(all_names), tuple(priors), tuple(units), like)
-    draws = SAMPLER_FUNCTIONS[sampler](post, config, rng_sampler, progress)
-    regimes = _regimes(like, draws, len(names), rng_regime)
+                           noise=noise, memory_budget=work)
+    post = _log_posterior(like, experiment, names, work)
+    run = {"mh": sample_mh, "ensemble": sample_ensemble, "grid": sample_grid}[sampler]
+    draws = run(post, config, rng_sampler, progress)  # type: ignore[operator]
+    checked = posterior_pass(like, draws, rng_pass, work)
+    params, warns = _summarize(post, draws, checked, notes, likelihood, trials)
+    return InferenceResult(experiment, trials, likelihood, sampler, int(seed), config, post,
+                           draws, params, checked.regimes, tuple(warns), like.describe(),
+                           time.perf_counter() - start, checked.log_likelihood,
+                           checked.replicates, budget)
+
+
+def _check_arguments(likelihood: str, sampler: str, noise: str, seed: Any) -> None:
+    check_choice("likelihood", likelihood, LIKELIHOODS)
+    check_choice("sampler", sampler, SAMPLERS)
+    check_choice("noise", noise, ("auto", "given", "inferred"))
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"`seed` must be a non-negative integer; got {seed!r}")
+
+
+def _plan(likelihood: str, sampler: str, config: Any, dim: int, trials: Trials,
+          budget: int) -> float:
+    """Bytes held through the run (the table, the draws, a grid); refuse up front what cannot
+    fit: these beyond half the budget, or one likelihood evaluation beyond the rest."""
+    if sampler == "grid":
+        check_grid_memory(config.points_for(dim), dim, budget, RESIDENT_SHARE)
+    kept = config.draws + (config.chains if sampler == "mh" else 0)
+    draws = kept * (dim + 4) * 8.0
+    require(f"keeping {config.draws} draws of {dim} or more parameters", draws, budget,
+            "lower `draws`, or raise `memory_budget`", RESIDENT_SHARE)
+    resident = (trials.n * BYTES_PER_TRIAL + draws
+                + (grid_bytes(config.points_for(dim), dim) if sampler == "grid" else 0.0))
+    require(f"holding {trials.n} trials, the draws and the grid through the run", resident,
+            budget, "raise `memory_budget`, or split the table", RESIDENT_SHARE)
+    if likelihood == "gaussian":
+        require(f"one evaluation of the gaussian likelihood ({trials.n} trials, each simulated "
+                f"at its own incidence)", trials.n * BYTES_PER_BOUNCE, budget - resident,
+                "raise `memory_budget`, or split the table")
+    return resident
+
+
+def _log_posterior(like, experiment: Experiment, names, work: float) -> LogPosterior:
+    """Prior of the model parameters and of the likelihood's own (noise levels)."""
+    extra = like.extra_parameters
+    return LogPosterior(tuple(names) + tuple(e[0] for e in extra),
+                        tuple(experiment.priors[n] for n in names) + tuple(e[1] for e in extra),
+                        tuple(experiment.unit(n) for n in names) + tuple(e[2] for e in extra),
+                        like, batch_rows(work, like.bytes_per_row))
+
+
+def _summarize(post: LogPosterior, draws: Draws, checked: PosteriorPass, notes: list[str],
+               likelihood: str, trials: Trials):
     diag = diagnostics(draws.samples, post.names)
     params = tuple(summarize_parameter(n, u, p, draws.samples[..., i].ravel(), diag[n],
-                                       regimes["share_rolling"])
+                                       checked.regimes["share_rolling"])
                    for i, (n, u, p) in enumerate(zip(post.names, post.units, post.priors,
                                                      strict=True)))
-    warns = warnings_for(list(params), draws.samples, post.priors, sampler, draws.info)
+    warns = notes + warnings_for(list(params), draws.samples, post.priors, draws.info,
+                                 impossible_data=bool(notes))
     if likelihood == "gaussian":
         warns += [f"{c} was measured but has no standard errors ({c}_se): the gaussian "
                   f"likelihood treats it as exact, which makes the posterior too narrow if it "
                   f"is not; add the column" for c in sorted(trials.measured)
                   if np.isnan(trials.se[c]).any()]
-    return InferenceResult(experiment, trials, likelihood, sampler, int(seed), config, post,
-                           draws, params, regimes, tuple(warns), like.describe(),
-                           time.perf_counter() - start)
+    if checked.note:
+        warns.append(checked.note)
+    return params, warns
 
 
-def _regimes(like, draws: Draws, d_model: int, rng) -> dict:
-    """Share of simulated bounces leaving rolling, over posterior draws and conditions."""
-    flat = draws.samples.reshape(-1, draws.samples.shape[-1])[:, :d_model]
-    pick = rng.choice(flat.shape[0], size=min(REGIME_DRAWS, flat.shape[0]), replace=False)
-    r = like.forward(flat[np.sort(pick)])
-    rolling = np.where(r.ok, r.rolling, False)
-    per_draw = rolling.mean(axis=1)
-    return {"share_rolling": float(rolling.mean()),
-            "draws_all_slip": float(np.mean(per_draw == 0.0)),
-            "draws_all_roll": float(np.mean(per_draw == 1.0)),
-            "draws_mixed": float(np.mean((per_draw > 0) & (per_draw < 1))),
-            "failed_simulations": int(np.count_nonzero(~r.ok)),
-            "conditions": "per trial" if r.ok.shape[1] > 1 else "nominal incidence",
-            "n_draws": int(pick.size)}
+def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
+                   trials: Trials) -> InferenceResult:
+    """Rebuild the :class:`InferenceResult` saved as ``posterior`` (posterior.nc) and
+    ``summary`` (the content of summary.json), without its likelihood object."""
+    names = tuple(summary["parameters"])
+    arrays = read_posterior(posterior, names)
+    extra = noise_priors(trials) if set(names) - set(experiment.priors) else {}
+    priors = tuple(experiment.priors[n] if n in experiment.priors else extra[n] for n in names)
+    units = tuple(p["unit"] for p in summary["parameters"].values())
+    params = tuple(ParameterSummary(**_fields(p)) for p in summary["parameters"].values())
+    sampler = summary["sampler"]
+    settings = {k: v for k, v in summary["sampler_settings"].items() if k != "result"}
+    config = sampler_config(sampler, **settings)
+    stats = arrays["stats"]
+    draws = Draws(arrays["samples"], stats["lp"],
+                  RUN_TYPES[sampler].from_dict(summary["sampler_settings"]["result"]),
+                  stats.get("accepted"))
+    rep = arrays["replicates"]
+    return InferenceResult(experiment, trials, summary["likelihood"], sampler, summary["seed"],
+                           config, LogPosterior(names, priors, units, None), draws, params,
+                           summary["regimes"], tuple(summary["warnings"]),
+                           summary["likelihood_details"], summary["seconds"],
+                           arrays["log_likelihood"], None if rep is None else Replicates(*rep),
+                           int(summary.get("memory_budget_bytes", DEFAULT_MEMORY_BUDGET)))
 
 
-def inference_data(result: InferenceResult):
-    """ArviZ InferenceData: posterior, sample_stats, observed_data, provenance attributes."""
-    az = import_arviz()
-    s = result.draws.samples
-    t = result.trials
-    observed = {"rebound_speed": np.asarray(t.rebound_speed),
-                "rebound_angle": np.asarray(t.rebound_angle),
-                "incidence_speed": np.asarray(t.incidence_speed),
-                "incidence_angle": np.asarray(t.incidence_angle),
-                "incidence_spin": np.asarray(t.incidence_spin)}
-    attrs = {"likelihood": result.likelihood, "sampler": result.sampler,
-             "seed": result.seed, "bouncebayes_version": __version__,
-             "data_file": t.source, "data_sha256": t.sha256,
-             "experiment_file": result.experiment.source,
-             "experiment_sha256": result.experiment.text_sha256,
-             "config": json.dumps(result.config.__dict__),
-             "units": json.dumps(dict(zip(result.names, result.posterior.units, strict=True)))}
-    return az.from_dict(
-        posterior={n: s[..., i] for i, n in enumerate(result.names)},
-        sample_stats={k: np.asarray(v) for k, v in result.draws.stats.items()},
-        observed_data=observed, dims={k: ["trial"] for k in observed},
-        coords={"trial": list(t.labels)}, attrs=attrs)
-
-
-def write_outputs(result: InferenceResult, out: str | Path) -> dict[str, Path]:
-    """Write ``posterior.nc`` (NetCDF via ArviZ/h5netcdf) and ``summary.json``, with the grid
-    sampler also ``grid.npz`` (normalised joint density and marginals), as one: if any of them
-    cannot be written, none of the earlier files is replaced."""
-    out = Path(out)
-    summary = json_text(result.summary())
-    idata = inference_data(result)
-    writers = {out / "posterior.nc": lambda tmp: idata.to_netcdf(str(tmp)),
-               out / "summary.json": lambda tmp: tmp.write_text(summary, encoding="utf-8")}
-    grid = result.draws.info.get("grid")
-    if grid is not None:
-        def save(tmp):
-            with open(tmp, "wb") as fh:
-                np.savez_compressed(
-                    fh, density=grid["density"], names=np.array(result.names),
-                    **{f"centres_{i}": np.array(c) for i, c in enumerate(grid["centres"])},
-                    **{f"marginal_{i}": np.array(m) for i, m in enumerate(grid["marginals"])})
-        writers[out / "grid.npz"] = save
-    paths = write_all(writers)
-    return dict(zip(("posterior", "summary", "grid"), paths))
+def _fields(p: dict[str, Any]) -> dict[str, Any]:
+    """A ParameterSummary's fields from its summary.json record."""
+    return {k: (tuple(v) if k in ("ci90", "modes") else v) for k, v in p.items()
+            if k != "paper_form"}
 
 
 def format_table(result: InferenceResult) -> str:

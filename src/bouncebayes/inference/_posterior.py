@@ -1,94 +1,93 @@
-"""The log posterior (prior + likelihood) and the samplers' configuration."""
+"""The log posterior: prior + likelihood of parameter rows, in memory-bounded batches."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Literal, get_args
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
-from .._validate import check_scalar
-from ..data import Prior
+from ..data import Prior, Uniform
+from . import _kernels as _kernel_module
 
-SamplerName = Literal["mh", "ensemble", "grid"]
-SAMPLERS: tuple[str, ...] = get_args(SamplerName)
-GRID_POINTS = {1: 2048, 2: 512, 3: 96}  # default grid points per dimension
+_kernels: Any = _kernel_module  # numba dispatchers: mypy cannot see their signatures
+
+
+def _rows(theta: Any) -> np.ndarray:
+    """Parameter rows as a float64 (n, d) array (one row from a 1-D vector)."""
+    theta = np.asarray(theta, dtype=float)
+    return theta[None, :] if theta.ndim == 1 else theta
 
 
 @dataclass(frozen=True)
 class LogPosterior:
     """``log prior + log likelihood`` of parameter rows (n, d); ``-inf`` outside the support.
 
-    The likelihood is only evaluated where the prior is positive."""
+    The likelihood is only evaluated where the prior is positive, and at most ``batch_rows``
+    rows at a time (the memory plan of :func:`~bouncebayes.inference.infer`).
+    """
 
     names: tuple[str, ...]
     priors: tuple[Prior, ...]
     units: tuple[str, ...]
-    likelihood: object  # callable(theta (n, d)) -> (n,)
+    likelihood: Any  #: callable(theta (n, d)) -> (n,); see ``_likelihood``
+    batch_rows: int = 1 << 62
+    _lower: np.ndarray = field(init=False, repr=False, compare=False)
+    _upper: np.ndarray = field(init=False, repr=False, compare=False)
+    _shaped: tuple[int, ...] = field(init=False, repr=False, compare=False)
+    _constant: float = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        support = np.array([p.support for p in self.priors], dtype=float).reshape(-1, 2)
+        object.__setattr__(self, "_lower", support[:, 0].copy())
+        object.__setattr__(self, "_upper", support[:, 1].copy())
+        # uniform priors are a constant inside their support: only the others are evaluated
+        shaped = tuple(i for i, p in enumerate(self.priors) if not isinstance(p, Uniform))
+        object.__setattr__(self, "_shaped", shaped)
+        object.__setattr__(self, "_constant", float(sum(
+            -math.log(p.high - p.low) for p in self.priors if isinstance(p, Uniform))))
 
     @property
     def dim(self) -> int:
         return len(self.names)
 
     def log_prior(self, theta: np.ndarray) -> np.ndarray:
-        theta = np.atleast_2d(theta)
-        return sum(p.logpdf(theta[:, i]) for i, p in enumerate(self.priors))
+        """Log prior density of rows (n, d); ``-inf`` outside the support."""
+        return self._log_prior(_rows(theta))[0]
+
+    def _log_prior(self, theta: np.ndarray) -> tuple[np.ndarray, int]:
+        """Log prior of rows (n, d) and the number of rows inside the support."""
+        out = np.empty(theta.shape[0])
+        inside = _kernels.box_log_prior(theta, self._lower, self._upper, self._constant, out)
+        if self._shaped:
+            for i in self._shaped:
+                out += self.priors[i].logpdf(theta[:, i])
+            inside = int(np.count_nonzero(out > -np.inf))
+        return out, inside
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
-        theta = np.atleast_2d(np.asarray(theta, dtype=float))
-        lp = self.log_prior(theta)
-        inside = np.isfinite(lp)
-        out = np.full(theta.shape[0], -np.inf)
+        theta = _rows(theta)
+        if theta.shape[0] > self.batch_rows:
+            return np.concatenate([self(theta[s:s + self.batch_rows])
+                                   for s in range(0, theta.shape[0], self.batch_rows)])
+        lp, inside_rows = self._log_prior(theta)
+        if inside_rows == theta.shape[0]:  # the common case: no copies
+            _kernels.add_log_densities(lp, self.likelihood(theta), lp)
+            return lp
+        inside = lp > -np.inf
         if inside.any():
-            out[inside] = lp[inside] + self.likelihood(theta[inside])
-        return np.where(np.isnan(out), -np.inf, out)
+            part = lp[inside]
+            _kernels.add_log_densities(part, self.likelihood(theta[inside]), part)
+            lp[inside] = part
+        return lp
+
+    def subset(self, most: int) -> LogPosterior:
+        """The posterior given at most ``most`` evenly spaced trials (see the likelihoods'
+        ``subset``)."""
+        like = self.likelihood.subset(most)
+        return self if like is self.likelihood else replace(self, likelihood=like)
 
     def box(self, mass: float = 1e-6) -> np.ndarray:
         """(d, 2): the prior supports, cut to finite quantiles where unbounded."""
         return np.array([p.box(mass) for p in self.priors])
-
-
-@dataclass(frozen=True, kw_only=True)
-class SamplerConfig:
-    """How to sample. Defaults are the paper's Metropolis–Hastings settings (15000 draws,
-    burn-in 100, thinning 3), split over 4 chains.
-
-    Arguments:
-        draws: posterior draws kept in all (mh: over all chains; ensemble: over all walkers;
-            grid: draws resampled from the grid for propagation).
-        chains: independent Metropolis–Hastings chains, started from dispersed points.
-        burn_in: iterations per chain (mh) or steps (ensemble) discarded at the start; the mh
-            proposal scale is tuned during them.
-        thin: keep every ``thin``-th iteration (mh) or step (ensemble).
-        walkers: walkers of the ensemble sampler (at least 2 x the number of parameters).
-        ensemble_burn_in: discarded steps of the ensemble sampler.
-        grid_points: grid points per parameter (default 2048, 512, 96 for 1, 2, 3 parameters).
-    """
-
-    draws: int = 15_000
-    chains: int = 4
-    burn_in: int = 100
-    thin: int = 3
-    walkers: int = 32
-    ensemble_burn_in: int = 500
-    ensemble_thin: int = 5
-    grid_points: int | None = None
-
-    def __post_init__(self) -> None:
-        for name, low in (("draws", 100), ("chains", 1), ("burn_in", 0), ("thin", 1),
-                          ("walkers", 4), ("ensemble_burn_in", 0), ("ensemble_thin", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"`{name}` must be an integer >= {low}; got {value!r}")
-        if self.grid_points is not None:
-            check_scalar("grid_points", self.grid_points, low=8, high=1e5)
-
-    def points(self, dim: int) -> int:
-        if dim not in GRID_POINTS:
-            raise ValueError(f"the grid sampler handles 1 to 3 parameters; this problem has "
-                             f"{dim}: use `mh` or `ensemble`")
-        return int(self.grid_points or GRID_POINTS[dim])
-
-    def per_chain(self) -> int:
-        return math.ceil(self.draws / self.chains)

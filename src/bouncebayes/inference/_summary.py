@@ -5,22 +5,16 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 from scipy import signal, stats
 
-RHAT_LIMIT = 1.01
-ESS_LIMIT = 400
+from ._draws import ESS_LIMIT as ESS_LIMIT
+from ._draws import RHAT_LIMIT as RHAT_LIMIT
+
 ROLLING_LIMIT = 0.95  # share of (draw, bounce) pairs rolling above which mu is not identified
-
-
-def import_arviz():
-    """ArviZ 0.x announces its refactor with a FutureWarning at import; silence only that."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", FutureWarning)
-        import arviz
-
-    return arviz
+TAIL_PROBS = (0.05, 0.95)  # quantiles of the tail ESS (Vehtari et al. 2021)
 
 
 @dataclass(frozen=True)
@@ -74,16 +68,20 @@ def _fmt(value: float, scale: float) -> str:
 
 
 def diagnostics(samples: np.ndarray, names: tuple[str, ...]) -> dict[str, dict]:
-    """R-hat (rank-normalised, split) and bulk/tail ESS from ArviZ, per parameter."""
-    az = import_arviz()
-    data = az.convert_to_dataset({n: samples[..., i] for i, n in enumerate(names)})
+    """Rank-normalised split R-hat and bulk/tail ESS (Vehtari et al. 2021) from arviz-stats,
+    per parameter, for draws (chains, draws, d)."""
+    import arviz_stats
+
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # e.g. R-hat of a single chain
-        rhat = az.rhat(data) if samples.shape[0] > 1 else None
-        bulk = az.ess(data, method="bulk")
-        tail = az.ess(data, method="tail")
-    return {n: {"r_hat": None if rhat is None else _num(rhat[n]),
-                "ess_bulk": _num(bulk[n]), "ess_tail": _num(tail[n])} for n in names}
+        warnings.simplefilter("ignore", RuntimeWarning)  # e.g. a constant chain
+        rhat = (arviz_stats.rhat(samples, chain_axis=0, draw_axis=1, method="rank")
+                if samples.shape[0] > 1 else None)
+        bulk = arviz_stats.ess(samples, chain_axis=0, draw_axis=1, method="bulk")
+        tail = arviz_stats.ess(samples, chain_axis=0, draw_axis=1, method="tail",
+                               prob=TAIL_PROBS)
+    return {n: {"r_hat": None if rhat is None else _num(rhat[i]),
+                "ess_bulk": _num(bulk[i]), "ess_tail": _num(tail[i])}
+            for i, n in enumerate(names)}
 
 
 def _num(x) -> float | None:
@@ -131,42 +129,31 @@ def summarize_parameter(name, unit, prior, x, diag, rolling_share=None) -> Param
 
 
 def warnings_for(summaries: list[ParameterSummary], samples: np.ndarray, priors,
-                 sampler: str, info: dict | None = None) -> list[str]:
-    """Plain-language warnings: chains disagreeing, too few effective draws, several modes,
-    draws piled against a prior bound, parameters the data do not identify, a grid too coarse
-    for the posterior."""
-    out = []
-    info = info or {}
+                 info: Any = None, *, impossible_data: bool = False) -> list[str]:
+    """Plain-language warnings: the sampler's own (chains disagreeing, too few effective draws
+    or autocorrelation times, a grid too coarse; ``info``: its typed run record), several
+    modes, draws piled against a prior bound, parameters the data do not identify.
+    ``impossible_data``: some bounces no parameter value can produce, so that widening a prior
+    is not the remedy for draws piled against it."""
+    out = list(info.warnings(summaries)) if info is not None else []
     flat = samples.reshape(-1, samples.shape[-1])
     for i, s in enumerate(summaries):
-        if sampler == "ensemble":
-            ratio = info.get("kept_steps_per_autocorrelation", [np.inf] * len(summaries))[i]
-            if not ratio >= 50:
-                out.append(f"{s.name}: the ensemble ran for only {ratio:.0f} autocorrelation "
-                           f"times (< 50); run longer (--draws)")
-        elif s.r_hat is not None and s.r_hat > RHAT_LIMIT:
-            out.append(f"{s.name}: the chains disagree (R-hat {s.r_hat:.3f} > {RHAT_LIMIT}); "
-                       f"run longer (--draws, --burn-in) or check for several modes")
-        if sampler != "grid" and s.ess_bulk is not None and min(
-                s.ess_bulk, s.ess_tail or np.inf) < ESS_LIMIT:
-            out.append(f"{s.name}: only {min(s.ess_bulk, s.ess_tail or np.inf):.0f} effective "
-                       f"draws (< {ESS_LIMIT}); intervals are rough: run longer (--draws)")
         if len(s.modes) > 1:
             where = ", ".join(f"{m:.4g}" for m in s.modes)
             out.append(f"{s.name}: the posterior has {len(s.modes)} modes (at {where}"
                        f"{' ' + s.unit if s.unit else ''}); a mean and a single interval "
                        f"do not describe it")
-        if sampler == "grid" and info.get("cells_per_sd", [np.inf] * len(summaries))[i] < 3:
-            out.append(f"{s.name}: the posterior sd spans only "
-                       f"{info['cells_per_sd'][i]:.1f} grid cells; raise --grid-points")
-        out += _pile_warning(s, flat[:, i], priors[i])
+        out += _pile_warning(s, flat[:, i], priors[i], impossible_data)
         if not s.identifiable:
             out.append(f"{s.name} is not identified: {s.why_not_identified}")
     return out
 
 
-def _pile_warning(s: ParameterSummary, x: np.ndarray, prior) -> list[str]:
+def _pile_warning(s: ParameterSummary, x: np.ndarray, prior, impossible_data: bool) -> list[str]:
     low, high = prior.support
+    remedy = ("widening the prior will not help: some bounces rebound faster than they "
+              "arrived, which no parameter value can produce" if impossible_data
+              else "widen the prior if values beyond are physical")
     out = []
     for side, edge in (("lower", low), ("upper", high)):
         if not math.isfinite(edge) or not all(map(math.isfinite, prior.support)):
@@ -175,5 +162,5 @@ def _pile_warning(s: ParameterSummary, x: np.ndarray, prior) -> list[str]:
         if near > 0.05:
             out.append(f"{s.name}: {100 * near:.0f} % of the draws lie within 1 % of the prior's "
                        f"{side} bound ({edge:g}{' ' + s.unit if s.unit else ''}): the posterior "
-                       f"piles against it; widen the prior if values beyond are physical")
+                       f"piles against it; {remedy}")
     return out
