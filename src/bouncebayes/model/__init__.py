@@ -20,6 +20,14 @@ from ._config import SolverConfig as SolverConfig
 from ._config import damping_unit as damping_unit
 from ._config import mindlin_stiffness_ratio as mindlin_stiffness_ratio
 from ._config import model_parameters as model_parameters
+from ._derived import DEFAULT_ANGLES as DEFAULT_ANGLES
+from ._derived import DEFAULT_SPEEDS as DEFAULT_SPEEDS
+from ._derived import DerivedQuantity as DerivedQuantity
+from ._derived import ObliqueResponse as ObliqueResponse
+from ._derived import derived_quantities as derived_quantities
+from ._derived import equivalent_linear_dashpot as equivalent_linear_dashpot
+from ._derived import normal_response as normal_response
+from ._derived import oblique_response as oblique_response
 from ._domain import HERTZ_OVERLAP_LIMIT as HERTZ_OVERLAP_LIMIT
 from ._domain import PARAMETER_DOMAINS as PARAMETER_DOMAINS
 from ._domain import Domain as Domain
@@ -38,10 +46,12 @@ from ._results import Status as Status
 from ._simulate import simulate as simulate
 
 __all__ = [
-    "HERTZ_OVERLAP_LIMIT", "NORMAL_LAWS", "PAPER_BALL", "PARAMETER_DOMAINS", "STANDARD_GRAVITY",
+    "DEFAULT_ANGLES", "DEFAULT_SPEEDS", "HERTZ_OVERLAP_LIMIT", "NORMAL_LAWS", "PAPER_BALL", "PARAMETER_DOMAINS", "STANDARD_GRAVITY",
     "TANGENTIAL_LAWS", "VARYING", "Ball", "BounceFailed", "BounceHistory", "BounceModel",
-    "Bounces", "Domain", "HertzImpact", "Rebounds", "RigidBodyRebound", "SimulationWarning",
-    "SolverConfig", "Status", "damping_ratio_restitution", "damping_unit",
-    "hertz_elastic_impact", "mindlin_stiffness_ratio", "model_parameters", "parameter_domain",
+    "Bounces", "DerivedQuantity", "Domain", "HertzImpact", "ObliqueResponse", "Rebounds", "RigidBodyRebound", "SimulationWarning",
+    "SolverConfig", "Status", "damping_ratio_restitution", "damping_unit", "derived_quantities",
+    "equivalent_linear_dashpot",
+    "hertz_elastic_impact", "mindlin_stiffness_ratio", "model_parameters", "normal_response",
+    "oblique_response", "parameter_domain",
     "restitution_damping_ratio", "rigid_body_rebound", "simulate", "simulate_history",
 ]
