@@ -114,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     row["path"] = "closed form" if row["closed_form"] else "ODE"
     if not row["hertz_valid"]:
         print(f"bouncebayes simulate: warning: the maximum overlap, "
-              f"{row['max_overlap'] * 1e3:.4g} mm, exceeds {HERTZ_OVERLAP_LIMIT:.0%} of the ball's "
+              f"{float(row['max_overlap']) * 1e3:.4g} mm, exceeds {HERTZ_OVERLAP_LIMIT:.0%} of the ball's "
               f"radius ({ball.radius * 1e3:.4g} mm): beyond the small strains of Hertz's contact, "
               f"so these numbers are the model's, not a real ball's", file=sys.stderr)
     if args.json:

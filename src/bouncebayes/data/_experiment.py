@@ -262,9 +262,13 @@ def _prior(p: _Parser, name: str, spec: Any, normal_law: str) -> Prior:
     v = {k: p.value(f"{path}.{k}", spec, k, s) for k, s in keys.items()}
     if "low" in v and "high" in v and not v["low"] < v["high"]:
         raise p.error(path, f"`low` ({v['low']!r}) must be less than `high` ({v['high']!r})")
-    prior = {"uniform": lambda: Uniform(v["low"], v["high"]),
-             "normal": lambda: Normal(v["mean"], v["sd"], v["low"], v["high"]),
-             "lognormal": lambda: LogNormal(v["median"], v["sd_log"])}[kind]()
+    prior: Prior
+    if kind == "uniform":
+        prior = Uniform(v["low"], v["high"])
+    elif kind == "normal":
+        prior = Normal(v["mean"], v["sd"], v["low"], v["high"])
+    else:
+        prior = LogNormal(v["median"], v["sd_log"])
     _check_prior_domain(p, path, name, kind, prior, parameter_domain(name, normal_law))
     return prior
 

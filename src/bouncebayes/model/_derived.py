@@ -198,10 +198,13 @@ def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *
                          low_open=True)
     values = dict(values or {})
     speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
-    law = dict(normal_law=normal_law, tangential=tangential, solver=solver)
-    e, tc = normal_response(ball, values, speeds=speeds, **law)
-    e_ref, tc_ref = (a[:, 0] for a in normal_response(ball, values, speeds=[v_ref], **law))
-    obl = oblique_response(ball, values, speed=v_ref, angles=angles, **law)
+    e, tc = normal_response(ball, values, speeds=speeds, normal_law=normal_law,
+                            tangential=tangential, solver=solver)
+    e_ref, tc_ref = (a[:, 0] for a in normal_response(
+        ball, values, speeds=[v_ref], normal_law=normal_law, tangential=tangential,
+        solver=solver))
+    obl = oblique_response(ball, values, speed=v_ref, angles=angles, normal_law=normal_law,
+                           tangential=tangential, solver=solver)
     k, c, zeta = equivalent_linear_dashpot(ball.mass, e_ref, tc_ref)
     lo, hi = float(speeds.min()), float(speeds.max())
     where = _TRANSFER.format(speeds=f"{lo:g}-{hi:g} m/s")
