@@ -29,7 +29,11 @@ class Forward:
             raise ValueError(f"cannot infer {unknown}; inferable parameters: {PARAMETER_ORDER}")
         self.experiment = experiment
         self.names = tuple(names)
-        self.solver = solver or SolverConfig()
+        # no wall-clock limit per call: a posterior pass hands the model every draw at once, and
+        # a compliant contact (every bounce on the ODE, ~25x the closed form's cost) can outlast
+        # any fixed limit on a loaded machine, losing the batch's last rows (status TIMEOUT);
+        # the solver's step cap still bounds every bounce
+        self.solver = solver or SolverConfig(time_limit=None)
         e = experiment
         spin = e.incidence.spin if spin is None else spin
         speed, angle, spin = (np.array(a, dtype=float).ravel()
