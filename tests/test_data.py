@@ -87,12 +87,15 @@ def test_radius_and_density_alternatives():
     (("mass_kg = 0.0095", "mass_kg = -1.0"), r"`ball.mass_kg`: must be a finite number > 0"),
     (("mass_kg = 0.0095", "mass_kg = true"), r"`ball.mass_kg`: must be a number .* boolean"),
     (('normal = "kelvin-voigt"', 'normal = "maxwell"'),
-     r"`model.normal`: must be one of 'kelvin-voigt', 'hunt-crossley'; got 'maxwell'"),
+     r"`model.normal`: must be one of 'kelvin-voigt', 'hunt-crossley', 'linear-dashpot', "
+     r"'hertz-tsuji'; got 'maxwell'"),
     (("low = 0.0\nhigh = 0.5", "low = 0.5\nhigh = 0.1"),
      r"`parameters.mu`: `low` \(0.5\) must be less than `high` \(0.1\)"),
     (("[parameters.mu]", "[parameters.friction]"),
-     r"`parameters.friction`: unknown parameter; allowed parameters in \[parameters\]: "
-     r"eta, mu, spin, youngs_modulus"),
+     r"`parameters.friction`: unknown parameter( \(did you mean `\w+`\?\))?; allowed "
+     r"parameters in \[parameters\]: "
+     r"eta, mu, normal_stiffness, restitution, spin, tangential_stiffness_ratio, "
+     r"youngs_modulus"),
     (('prior = "uniform"\nlow = 0.0\nhigh = 0.5', 'prior = "beta"'),
      r"`parameters.mu.prior`: must be one of 'uniform', 'normal', 'lognormal'; got 'beta'"),
     (('prior = "uniform"\nlow = 0.0\nhigh = 0.5', 'prior = "normal"\nmean = 0.2\nsd = 0.1'),

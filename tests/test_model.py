@@ -72,7 +72,8 @@ def test_simulate_rejects_invalid_input(name, value, match):
 
 def test_simulate_rejects_bad_options():
     with pytest.raises(ValueError, match=r"`normal_law` must be one of 'kelvin-voigt', "
-                                         r"'hunt-crossley'; got 'maxwell'"):
+                                         r"'hunt-crossley', 'linear-dashpot', 'hertz-tsuji'; "
+                                         r"got 'maxwell'"):
         bb.simulate(normal_law="maxwell", **PAPER)
     with pytest.raises(ValueError, match=r"array arguments must broadcast to one shape; "
                                          r"got `mu` \(3,\), `eta` \(2,\)"):

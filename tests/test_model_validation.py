@@ -12,8 +12,10 @@ The sources, each cited again by the test that uses it:
 
 Digitized curves are compared with a box test: a point (x, y) passes when the model, evaluated
 anywhere within +-1 % of the x-axis range of x, comes within 1 % of the y-axis range of y (the
-digitization error that SOURCE.md estimates). The model has no tangential compliance, so oblique
-benchmarks are compared only where the closed form says the contact slides throughout the impact.
+digitization error that SOURCE.md estimates). Without tangential compliance (the study's model)
+oblique benchmarks are compared only where the closed form says the contact slides throughout
+the impact; with a Mindlin tangential spring (docs/model.md §5.2) Test 4 and the Kharaz
+experiment are compared over the whole incidence range (section "with tangential compliance").
 docs/validation.md explains the tolerances and lists the measured agreement; running this file
 as a script (``python tests/test_model_validation.py``) prints that agreement.
 """
@@ -531,6 +533,125 @@ def test_kharaz_experiment_in_sliding_range(who, name, quantity, sign):
     assert_agrees(kharaz_comparison(who, name, quantity, sign))
 
 
+# --------------------------------------------------------------------------- with tangential compliance
+
+
+# The compliant model: Mindlin's no-slip spring (docs/model.md §5.2) at the stiffness ratio of
+# the sphere's Poisson ratio, 2(1-nu)/(2-nu) (0.870 for alumina), as Chung & Ooi's Hertz-Mindlin
+# codes and Kratos's run take it; nothing is fitted.
+T4_COMPLIANT_FROM = 9.0  # deg: below, see test_low_incidence_is_left_to_the_record
+T4_GRIP = (T4_COMPLIANT_FROM, 33.4)  # deg: the grip range, below gross slip (bench4_in_range)
+
+
+def bench4_compliant_model(ball: bb.Ball, quantity: str, tangential: str = "mindlin"):
+    """As :func:`bench4_model`, with a tangential spring (and no regime check)."""
+
+    def model(angle):
+        angle = np.asarray(angle, dtype=float)
+        vn = T4_SPEED * np.cos(np.radians(angle))
+        res = bb.simulate(ball, mu=T4_MU, eta=etas_for_restitution(ball, T4_E, vn),
+                          speed=T4_SPEED, angle=angle, gravity=0.0, tangential=tangential)
+        u, v, w = (res.rebound_tangential_velocity, res.rebound_normal_velocity,
+                   res.rebound_spin)
+        return {"et": u / (T4_SPEED * np.sin(np.radians(angle))), "spin": w,
+                "patch": np.degrees(np.arctan((u + ball.radius * w) / v)),
+                "com": res.rebound_angle}[quantity]
+
+    return model
+
+
+def kharaz_scatter_in(quantity: str, angle) -> np.ndarray:
+    """The experiment's own inconsistency (``kharaz_spin_scatter``, a spin of ds rad/s) carried
+    into each quantity through r (w' - w0) = (u' - u) / kappa: a change du = kappa r ds of u'
+    moves e_t by du / (V sin theta), the centre-of-mass angle by about du / v'_n and the
+    contact-point angle by (1 + kappa) r ds / v'_n (radians, v'_n ~ e V cos theta)."""
+    ds = kharaz_spin_scatter()
+    r = T4_BALLS["oxide"].radius
+    a = np.radians(np.asarray(angle, dtype=float))
+    vn_out = T4_E * T4_SPEED * np.cos(a)
+    return {"et": KAPPA * r * ds / (T4_SPEED * np.sin(a)), "spin": np.full(a.shape, ds),
+            "com": np.degrees(KAPPA * r * ds / vn_out),
+            "patch": np.degrees((1.0 + KAPPA) * r * ds / vn_out)}[quantity]
+
+
+def compliant_comparison(source: str, spec: tuple) -> Comparison:
+    """Test 4 with a Mindlin spring, from ``T4_COMPLIANT_FROM`` to grazing: Chung & Ooi's DEM
+    curves and the Kharaz experiment by the box test (the experiment's with its own scatter
+    on top), Kratos's run at its exact angles."""
+    if source == "chung-ooi":
+        quantity, label, material = spec
+        d = read_kratos(T4_FILES[quantity])[label]
+        model, axes, extra = (bench4_compliant_model(T4_BALLS[material], quantity),
+                              T4_AXES[quantity], 0.0)
+        name = f"Chung-Ooi Test 4 {label} {quantity}, Mindlin"
+    elif source == "kratos":
+        (quantity,) = spec
+        d = read_kratos(f"test4_kratos_dem_output_{T4_KRATOS_RUN[quantity]}.dat")[""]
+        model, axes, extra = (bench4_compliant_model(T4_BALLS["oxide"], quantity),
+                              (0.0, T4_AXES[quantity][1]), 0.0)
+        name = f"Kratos DEM run, Test 4 {quantity}, Mindlin"
+    else:
+        who, what, quantity, sign = spec
+        d = read_kharaz(who, what)
+        base = bench4_compliant_model(T4_BALLS["oxide"], quantity)
+        model, axes = (lambda a: sign * base(a)), T4_AXES[quantity]
+        name = f"Kharaz 2001 ({who}) {quantity}, Mindlin"
+    d = d[d[:, 0] >= T4_COMPLIANT_FROM]
+    if source == "kharaz":
+        extra = kharaz_scatter_in(quantity, d[:, 0])
+    return compare(name, d[:, 0], d[:, 1], model, axes, extra=extra)
+
+
+COMPLIANT_CASES = ([("chung-ooi", spec) for spec in T4_DEM_SERIES]
+                   + [("kratos", (q,)) for q in T4_KRATOS_RUN]
+                   + [("kharaz", spec) for spec in KHARAZ_SERIES])
+
+
+@pytest.mark.parametrize(("source", "spec"), COMPLIANT_CASES,
+                         ids=[f"{s}-{'-'.join(map(str, x[:3]))}" for s, x in COMPLIANT_CASES])
+def test_test4_and_kharaz_with_tangential_compliance(source, spec):
+    """Chung & Ooi (2011) Test 4 and Kharaz et al. (2001) from 9 deg to grazing with the Mindlin
+    spring: within the digitization band of 1 % of each axis (Chung & Ooi's curves, Kratos's
+    run), plus, for the experiment, its own measured scatter (``kharaz_scatter_in``). Measured
+    agreement: docs/validation.md §5."""
+    assert_agrees(compliant_comparison(source, spec))
+
+
+def grip_misfit(model, data: np.ndarray) -> float:
+    """RMS of data - model over the grip range (9 to 33.4 deg)."""
+    d = data[(data[:, 0] >= T4_GRIP[0]) & (data[:, 0] <= T4_GRIP[1])]
+    return float(np.sqrt(np.mean((d[:, 1] - model(d[:, 0])) ** 2)))
+
+
+@pytest.mark.parametrize("spec", KHARAZ_SERIES, ids=[f"{w}-{q}" for w, _, q, _ in KHARAZ_SERIES])
+def test_compliance_explains_the_grip_regime(spec):
+    """In the grip range, where the study's rigid tangential contact stops applying, the Mindlin
+    spring brings the measured rebound at least twice as close (RMS over 9-33.4 deg) as the
+    rigid contact: measured 2.2 to 4.4 times (e_t 2.8 / 2.2, spin 3.4 / 3.4, contact-point angle
+    4.4, centre-of-mass angle 2.3; docs/validation.md §5). Near 9 deg both models agree and
+    the measured e_t lies below both, which caps the ratio."""
+    who, what, quantity, sign = spec
+    data = read_kharaz(who, what)
+    ball = T4_BALLS["oxide"]
+    spring = grip_misfit(lambda a: sign * bench4_compliant_model(ball, quantity)(a), data)
+    rigid = grip_misfit(lambda a: sign * bench4_compliant_model(ball, quantity, "none")(a),
+                        data)
+    assert spring < rigid / 2.0, (spring, rigid)
+
+
+def test_low_incidence_is_left_to_the_record():
+    """Below 9 deg the measured e_t (0.75-0.80 at 2-4 deg) lies far below every Hertz-Mindlin
+    model, this one (0.87-0.88) and Kratos's DEM run (0.854 at 5 deg) alike, while this model
+    and Kratos's run agree (0.006): the experiment there is not a test of this package's
+    implementation (docs/validation.md §5). Guard: the agreement with Kratos at 5 deg."""
+    run = read_kratos("test4_kratos_dem_output_tangential_COR.dat")[""]
+    at5 = run[run[:, 0] == 5.0][0]
+    model = float(bench4_compliant_model(T4_BALLS["oxide"], "et")(np.array([5.0]))[0])
+    assert abs(model - at5[1]) < 0.015 * T4_AXES["et"][1]
+    measured = read_kharaz("kratos_chung_ooi_fig", "tangential_COR_et")
+    assert (measured[measured[:, 0] < 5.0, 1] < model - 0.05).all()
+
+
 # --------------------------------------------------------------------------- Chung & Ooi Tests 5-6
 
 
@@ -657,6 +778,7 @@ if __name__ == "__main__":  # prints the measured agreement quoted in docs/valid
     comparisons += [kharaz_comparison(*spec) for spec in KHARAZ_SERIES]
     comparisons += [bench5_comparison(g, m) for m in T5_BALLS for g in (1, 2)]
     comparisons += [bench6_comparison(g, m) for m in T6_BALLS for g in (1, 2)]
+    comparisons += [compliant_comparison(*case) for case in COMPLIANT_CASES]
     for c in comparisons:
         print(c.summary())
     print(f"Kharaz spin scatter (the experiment's own): {kharaz_spin_scatter():.1f} rad/s")

@@ -20,12 +20,11 @@ from scipy import integrate, stats
 from ._io import write_json, write_with
 from .data import Experiment, Trials
 from .inference import InferenceResult, marginal_modes
-from .model import BounceFailed, BounceModel, Bounces, simulate_history
+from .model import BounceFailed, Bounces, simulate_history
 
 N_DRAWS = 2000  # draws propagated (bounce summaries, predictive)
 N_HISTORIES = 100  # draws whose time histories are kept (figures)
 KS_ALPHA = 0.01
-MODEL_PARAMETERS = ("mu", "eta", "youngs_modulus", "spin")
 
 
 @dataclass(frozen=True)
@@ -75,7 +74,7 @@ def _draw_subset(result: InferenceResult, n: int, rng) -> dict:
     flat = result.draws.samples.reshape(-1, result.draws.samples.shape[-1])
     pick = np.sort(rng.choice(flat.shape[0], size=min(n, flat.shape[0]), replace=False))
     theta = {}
-    for name in MODEL_PARAMETERS:
+    for name in result.experiment.model_parameters:
         if name in result.names:
             theta[name] = flat[pick, result.names.index(name)]
         else:
@@ -87,10 +86,7 @@ def _draw_subset(result: InferenceResult, n: int, rng) -> dict:
 
 def _simulate(experiment: Experiment, theta: dict, **incidence) -> Bounces:
     # errors="flag": failures are counted through the statuses, not fatal
-    return BounceModel(experiment.ball, mu=theta["mu"], eta=theta["eta"],
-                       youngs_modulus=theta["youngs_modulus"],
-                       inclination=experiment.inclination, normal_law=experiment.normal_law,
-                       gravity=experiment.gravity, errors="flag", **incidence).bounces()
+    return experiment.bounce_model(values=theta, errors="flag", **incidence).bounces()
 
 
 def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int = N_DRAWS,
@@ -149,12 +145,9 @@ def _histories(e: Experiment, theta: dict, n: int) -> tuple[dict, int]:
     inc = e.incidence
     for i in range(min(n, theta["mu"].size)):
         try:
-            h = simulate_history(e.ball, mu=float(theta["mu"][i]), eta=float(theta["eta"][i]),
-                                 youngs_modulus=float(theta["youngs_modulus"][i]),
-                                 speed=inc.speed, angle=inc.angle, spin=float(theta["spin"][i]),
-                                 inclination=e.inclination, normal_law=e.normal_law,
-                                 gravity=e.gravity, n_contact=200, n_flight=60,
-                                 flight_time=0.004)
+            values = e.model_values({k: float(theta[k][i]) for k in e.model_parameters})
+            h = simulate_history(e.ball, speed=inc.speed, angle=inc.angle, n_contact=200,
+                                 n_flight=60, flight_time=0.004, **values, **e.model_options)
         except BounceFailed:
             failed += 1
             continue

@@ -327,6 +327,10 @@ def _experiment_section(result: InferenceResult) -> list[str]:
                 ["nominal incidence", f"{e.incidence.speed:g} m/s at {e.incidence.angle:g} deg "
                                       f"from the normal, spin {e.incidence.spin:g} rad/s"],
                 ["normal force law", e.normal_law],
+                ["tangential contact", {"none": "rigid (Coulomb stick/slip, no spring)",
+                                        "mindlin": "Mindlin spring capped by Coulomb friction",
+                                        "linear": "linear spring capped by Coulomb friction"}[
+                                            e.tangential]],
                 ["priors", "; ".join(f"{n}: {p.describe()}" for n, p in e.priors.items())]]),
         "<h2>The data</h2>",
         f"<p>{t.n} bounces from <code>{html.escape(Path(t.source).name)}</code>; rebound "

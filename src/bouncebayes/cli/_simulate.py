@@ -12,9 +12,9 @@ from ._common import UserError, check_out_file, real, record
 
 HELP = "simulate one bounce and print its rebound, forces, contact time"
 DESCRIPTION = ("Simulate one oblique bounce of a ball on a rigid plane (Hertz contact, viscous "
-               "damping, Coulomb friction) and print the rebound, the contact time and the peak "
-               "forces. Incident values are those at first contact; rebound values those at "
-               "separation.")
+               "damping, Coulomb friction, optionally a tangential spring) and print the "
+               "rebound, the contact time and the peak forces. Incident values are those at "
+               "first contact; rebound values those at separation.")
 FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
 
 # Quantities printed, with units.
@@ -27,6 +27,7 @@ _ROWS = (
     ("peak_friction_force", "peak friction force", "N", "{:.6g}"),
     ("max_overlap", "maximum overlap", "mm", "{:.6g}"),
     ("regime", "contact point at separation", "", "{}"),
+    ("path", "solved by", "", "{}"),
 )
 _JSON_KEYS = ("rebound_speed", "rebound_angle", "rebound_spin", "contact_time",
               "peak_normal_force", "peak_friction_force", "regime")
@@ -34,7 +35,7 @@ _JSON_KEYS = ("rebound_speed", "rebound_angle", "rebound_spin", "contact_time",
 
 def add_ball_arguments(parser: argparse.ArgumentParser) -> None:
     """Ball and surface options shared by the commands that simulate."""
-    from ..model import NORMAL_LAWS, PAPER_BALL, STANDARD_GRAVITY
+    from ..model import NORMAL_LAWS, PAPER_BALL, STANDARD_GRAVITY, TANGENTIAL_LAWS
 
     g = parser.add_argument_group("ball and surface (SI units; defaults: the paper's 25.6 mm "
                                   "polybutadiene ball, see README 'Default ball')")
@@ -54,15 +55,30 @@ def add_ball_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--gravity", type=real, default=STANDARD_GRAVITY, metavar="M/S2",
                    help="gravitational acceleration in m/s^2")
     g.add_argument("--normal-law", choices=NORMAL_LAWS, default="kelvin-voigt",
-                   help="normal force: Hertz + linear viscous (kelvin-voigt, the paper's; "
-                        "eta in kg/s) or Hunt-Crossley (eta in s/m)")
+                   help="normal force (docs/model.md §4): Hertz + linear viscous "
+                        "(kelvin-voigt, the paper's; --eta in kg/s), Hunt-Crossley (--eta in "
+                        "s/m), the DEM linear spring-dashpot (--normal-stiffness, "
+                        "--restitution) or Hertz with Tsuji's dashpot (--restitution)")
+    g.add_argument("--tangential", choices=TANGENTIAL_LAWS, default="none",
+                   help="tangential compliance (docs/model.md §5.2): none (rigid, the "
+                        "paper's), mindlin (spring stiffness proportional to the contact "
+                        "radius) or linear (constant spring), capped by Coulomb friction")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``simulate``."""
     p.add_argument("--mu", type=real, default=0.16, help="Coulomb friction coefficient (-)")
-    p.add_argument("--eta", type=real, default=1.35,
-                   help="damping coefficient: kg/s (kelvin-voigt) or s/m (hunt-crossley)")
+    p.add_argument("--eta", type=real, default=None,
+                   help="damping coefficient: kg/s (kelvin-voigt) or s/m (hunt-crossley); "
+                        "default 1.35 kg/s or 0.1 s/m")
+    p.add_argument("--restitution", type=real, default=None, metavar="E",
+                   help="restitution coefficient in (0, 1] that sets the damping of "
+                        "linear-dashpot and hertz-tsuji, as DEM codes take it")
+    p.add_argument("--normal-stiffness", type=real, default=None, metavar="N/M",
+                   help="normal stiffness k_n of linear-dashpot in N/m")
+    p.add_argument("--tangential-stiffness-ratio", type=real, default=None, metavar="R",
+                   help="tangential to normal stiffness (docs/model.md §5.2); default "
+                        "Mindlin's 2(1-nu)/(2-nu)")
     p.add_argument("--speed", type=real, default=3.0, metavar="M/S",
                    help="incident speed in m/s")
     p.add_argument("--angle", type=real, default=60.0, metavar="DEG",
@@ -86,18 +102,19 @@ def run(args: argparse.Namespace) -> int:
         check_out_file("--plot", args.plot, FIGURE_SUFFIXES)
     ball = Ball.from_diameter(args.diameter, mass=args.mass, youngs_modulus=args.modulus,
                               poisson_ratio=args.poisson, inertia_factor=args.inertia_factor)
-    kwargs = dict(mu=args.mu, eta=args.eta, speed=args.speed, angle=args.angle, spin=args.spin,
+    kwargs = dict(mu=args.mu, speed=args.speed, angle=args.angle, spin=args.spin,
                   inclination=args.inclination, normal_law=args.normal_law,
-                  gravity=args.gravity)
+                  tangential=args.tangential, gravity=args.gravity, **_law_options(args))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SimulationWarning)  # reported below as an error
         result = simulate(ball, **kwargs)
     if result.n_failed:
         raise UserError(f"the bounce could not be solved: {result.failure_summary()}")
     row = result.item()
+    row["path"] = "closed form" if row["closed_form"] else "ODE"
     if not row["hertz_valid"]:
         print(f"bouncebayes simulate: warning: the maximum overlap, "
-              f"{row['max_overlap'] * 1e3:.4g} mm, exceeds {HERTZ_OVERLAP_LIMIT:.0%} of the ball's "
+              f"{float(row['max_overlap']) * 1e3:.4g} mm, exceeds {HERTZ_OVERLAP_LIMIT:.0%} of the ball's "
               f"radius ({ball.radius * 1e3:.4g} mm): beyond the small strains of Hertz's contact, "
               f"so these numbers are the model's, not a real ball's", file=sys.stderr)
     if args.json:
@@ -110,6 +127,43 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+# The options of each law's parameters, and the defaults of the damping coefficient.
+_LAW_OPTIONS = {"eta": "--eta", "restitution": "--restitution",
+                "normal_stiffness": "--normal-stiffness",
+                "tangential_stiffness_ratio": "--tangential-stiffness-ratio"}
+_ETA_DEFAULTS = {"kelvin-voigt": 1.35, "hunt-crossley": 0.1}
+
+
+def _law_options(args: argparse.Namespace) -> dict:
+    """The contact law's parameters from the options: each one it has, required where it has
+    no default; an option of a parameter it does not have is refused."""
+    from ..model import model_parameters
+
+    used = model_parameters(args.normal_law, args.tangential)
+    out = {}
+    for name, flag in _LAW_OPTIONS.items():
+        value = getattr(args, name)
+        if name not in used:
+            if value is not None:
+                raise UserError(f"{flag} is not a parameter of --normal-law {args.normal_law} "
+                                f"with --tangential {args.tangential} (its parameters: "
+                                f"{', '.join(used)})")
+            continue
+        if value is None and name == "eta":
+            value = _ETA_DEFAULTS[args.normal_law]
+        if value is None and name != "tangential_stiffness_ratio":
+            raise UserError(f"{flag} is required with --normal-law {args.normal_law}")
+        out[name] = value
+    return out
+
+
+def _law_text(kwargs: dict) -> str:
+    """The contact law's parameters in a title: ``eta = 1.35`` or ``e = 0.9, k_n = 1e+05``."""
+    short = {"eta": "eta", "restitution": "e", "normal_stiffness": "k_n",
+             "tangential_stiffness_ratio": "k_t/k_n"}
+    return ", ".join(f"{short[k]} = {kwargs[k]:g}" for k in short if kwargs.get(k) is not None)
+
+
 def _plot(ball, kwargs: dict, args: argparse.Namespace) -> Path:
     from .._io import staged_output
     from .._provenance import stamp
@@ -117,7 +171,7 @@ def _plot(ball, kwargs: dict, args: argparse.Namespace) -> Path:
     from ..plots import plot_bounce, save_figure
 
     history = simulate_history(ball, **kwargs)
-    title = (f"mu = {args.mu:g}, eta = {args.eta:g}, V = {args.speed:g} m/s, "
+    title = (f"mu = {args.mu:g}, {_law_text(kwargs)}, V = {args.speed:g} m/s, "
              f"angle = {args.angle:g} deg, spin = {args.spin:g} rad/s")
     with staged_output(args.plot, "file") as stage:
         path = save_figure(plot_bounce(history, title=title), stage / args.plot.name)
@@ -128,8 +182,9 @@ def _plot(ball, kwargs: dict, args: argparse.Namespace) -> Path:
 def format_bounce_table(row: dict, args: argparse.Namespace) -> str:
     """The printed table of one bounce."""
     scale = {"contact_time": 1e3, "max_overlap": 1e3}
-    lines = [f"bounce: mu = {args.mu:g}, eta = {args.eta:g}, incident {args.speed:g} m/s at "
-             f"{args.angle:g} deg, spin {args.spin:g} rad/s ({args.normal_law})"]
+    law = args.normal_law + ("" if args.tangential == "none" else f", {args.tangential} spring")
+    lines = [f"bounce: mu = {args.mu:g}, {_law_text(_law_options(args))}, incident "
+             f"{args.speed:g} m/s at {args.angle:g} deg, spin {args.spin:g} rad/s ({law})"]
     for key, label, unit, fmt in _ROWS:
         value = row[key] * scale[key] if key in scale else row[key]
         lines.append(f"  {label:<34} {fmt.format(value):>12} {unit}")

@@ -44,9 +44,9 @@ def run(args: argparse.Namespace) -> int:
         paths = write_campaign(campaign, stage, trajectories=not args.no_trajectories)
         stamp_tree(stage, stamp)
     t, truth = campaign.trials, campaign.truth
-    print(f"synthetic campaign: {t.n} bounces, seed {args.seed}, truth mu = "
-          f"{truth['population']['mu']:g}, eta = {truth['population']['eta']:g} "
-          f"{experiment.unit('eta')}")
+    values = ", ".join(f"{k} = {v:g}{' ' + experiment.unit(k) if experiment.unit(k) else ''}"
+                       for k, v in truth["population"].items())
+    print(f"synthetic campaign: {t.n} bounces, seed {args.seed}, truth {values}")
     print(f"  rebound speed {_spread(t.rebound_speed)} m/s, rebound angle "
           f"{_spread(t.rebound_angle)} deg; {100 * truth['share_rolling']:.0f} % of bounces left "
           f"rolling")

@@ -14,7 +14,8 @@ from typing import Any
 
 from .._errors import InputFileError
 from .._validate import range_text
-from ..model import Ball, Domain, damping_unit, parameter_domain
+from ..model import (Ball, Domain, damping_unit, mindlin_stiffness_ratio, model_parameters,
+                     parameter_domain)
 from ._priors import LogNormal, Normal, Prior, Uniform
 from ._schema import OPTIONAL, PARAMETERS, PRIOR_KEYS, REQUIRED_SECTIONS, SECTIONS, Key
 
@@ -35,9 +36,12 @@ class Incidence:
 class Experiment:
     """Everything known about an experiment, and what is to be inferred.
 
-    ``priors`` maps each inferred parameter (``mu``, ``eta``, ``youngs_modulus``, ``spin``) to its
-    prior; every other parameter is fixed at :meth:`fixed_value`. ``settings`` holds the
-    ``[trajectories]`` and ``[synth]`` tables with defaults filled in.
+    ``priors`` maps each inferred parameter (of :attr:`model_parameters`: ``mu``, ``eta`` or
+    ``restitution``, ``youngs_modulus`` or ``normal_stiffness``, ``spin``,
+    ``tangential_stiffness_ratio``) to its prior; every other parameter is fixed at
+    :meth:`fixed_value`. ``settings`` holds the ``[trajectories]`` and ``[synth]`` tables with
+    defaults filled in. :meth:`model_options` and :meth:`bounce_model` give the contact law to
+    the forward model.
     """
 
     name: str
@@ -47,29 +51,73 @@ class Experiment:
     incidence: Incidence
     normal_law: str
     gravity: float  #: m/s^2
-    contact: MappingProxyType  #: mu, eta values given in [contact]
+    contact: MappingProxyType  #: the values given in [contact]
     priors: MappingProxyType  #: name -> Prior, in file order
     trajectories: MappingProxyType
     synth: MappingProxyType
     source: str = "<string>"
     text_sha256: str = field(default="", compare=False)
+    tangential: str = "none"  #: tangential compliance: none, mindlin or linear
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
+        """The inferred parameters, in file order."""
         return tuple(self.priors)
+
+    @property
+    def model_parameters(self) -> tuple[str, ...]:
+        """Every per-bounce parameter of the experiment's contact law, inferred or fixed
+        (``bouncebayes.model.model_parameters``)."""
+        return model_parameters(self.normal_law, self.tangential)
+
+    @property
+    def model_options(self) -> dict[str, Any]:
+        """The contact law and surface as keyword arguments of the forward model
+        (``simulate``, ``simulate_history``, ``BounceModel``): ``normal_law``,
+        ``tangential``, ``inclination``, ``gravity``."""
+        return {"normal_law": self.normal_law, "tangential": self.tangential,
+                "inclination": self.inclination, "gravity": self.gravity}
+
+    def model_values(self, values: dict | None = None) -> dict[str, Any]:
+        """Every parameter of the contact law as keyword arguments of the forward model:
+        ``values`` (arrays or numbers, e.g. posterior draws) where given, the fixed value
+        otherwise."""
+        values = values or {}
+        return {name: values[name] if name in values else self.fixed_value(name)
+                for name in self.model_parameters}
+
+    def bounce_model(self, *, speed, angle, spin=None, values: dict | None = None,
+                     varying: tuple[str, ...] = (), **kwargs: Any):
+        """The experiment's :class:`bouncebayes.model.BounceModel` under the incidence
+        conditions ``speed``, ``angle`` (and ``spin``, default the parameter's value), with
+        the contact law's parameters from ``values`` or fixed (those in ``varying`` come
+        with each call); ``kwargs`` go to the model (``solver``, ``errors``)."""
+        from ..model import BounceModel
+
+        given = {} if values is None else dict(values)
+        if spin is not None:
+            given["spin"] = spin
+        params: dict[str, Any] = {name: given[name] if name in given else (
+            self.priors[name].ppf(0.5) if name in varying else self.fixed_value(name))
+            for name in self.model_parameters}
+        return BounceModel(self.ball, speed=speed, angle=angle, **params,
+                           **self.model_options, varying=varying, **kwargs)
 
     def unit(self, name: str) -> str:
         """Unit of a parameter (the damping unit depends on the normal law)."""
         return damping_unit(self.normal_law) if name == "eta" else PARAMETERS[name][0]
 
     def fixed_value(self, name: str) -> float:
-        """The value of a parameter that is not inferred, from the file."""
-        if name in ("mu", "eta"):
+        """The value of a parameter that is not inferred, from the file (the ball's modulus,
+        the incident spin, Mindlin's stiffness ratio where [contact] does not give one)."""
+        if name in ("mu", "eta", "restitution", "normal_stiffness"):
             if name not in self.contact:
                 raise InputFileError(self.source, f"missing; `{name}` is not inferred (no "
                                      f"[parameters.{name}]) so its value is needed",
                                      field=f"contact.{name}")
             return self.contact[name]
+        if name == "tangential_stiffness_ratio":
+            return self.contact.get(name, mindlin_stiffness_ratio(self.ball.poisson_ratio))
         return {"youngs_modulus": self.ball.youngs_modulus,
                 "spin": self.incidence.spin}[name]
 
@@ -106,7 +154,7 @@ def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -
     inc = t["incidence"]
     incidence = Incidence(inc["speed_m_s"], inc["angle_deg"], inc["spin_rad_s"],
                           inc["speed_sd_m_s"], inc["angle_sd_deg"], inc["spin_sd_rad_s"])
-    priors = _priors(p, doc.get("parameters", {}), t["model"]["normal"])
+    priors = _priors(p, doc.get("parameters", {}), t["model"])
     _check_values_in_domain(p, t)
     return Experiment(
         name=t["experiment"]["name"], description=t["experiment"]["description"], ball=ball,
@@ -114,7 +162,8 @@ def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -
         normal_law=t["model"]["normal"], gravity=t["model"]["gravity_m_s2"],
         contact=MappingProxyType({k: v for k, v in t["contact"].items() if v is not None}),
         priors=MappingProxyType(priors), trajectories=MappingProxyType(t["trajectories"]),
-        synth=MappingProxyType(t["synth"]), source=source, text_sha256=sha256)
+        synth=MappingProxyType(t["synth"]), source=source, text_sha256=sha256,
+        tangential=t["model"]["tangential"])
 
 
 class _Parser:
@@ -186,11 +235,18 @@ def _ball(p: _Parser, b: dict) -> Ball:
         raise p.error("ball", str(exc)) from None
 
 
-def _priors(p: _Parser, table: Any, normal_law: str) -> dict[str, Prior]:
+def _priors(p: _Parser, table: Any, model: dict) -> dict[str, Prior]:
     if not isinstance(table, dict):
         raise p.error("parameters", f"must hold tables [parameters.NAME]; got {_kind(table)}")
     p.check_keys(table, PARAMETERS, "parameters", what="parameter")
-    return {name: _prior(p, name, spec, normal_law) for name, spec in table.items()}
+    used = model_parameters(model["normal"], model["tangential"])
+    for name in table:
+        if name not in used:
+            raise p.error(f"parameters.{name}", f"not a parameter of the contact law "
+                                                f"(normal = {model['normal']!r}, tangential = "
+                                                f"{model['tangential']!r}), whose parameters "
+                                                f"are {', '.join(used)}")
+    return {name: _prior(p, name, spec, model["normal"]) for name, spec in table.items()}
 
 
 def _prior(p: _Parser, name: str, spec: Any, normal_law: str) -> Prior:
@@ -206,25 +262,34 @@ def _prior(p: _Parser, name: str, spec: Any, normal_law: str) -> Prior:
     v = {k: p.value(f"{path}.{k}", spec, k, s) for k, s in keys.items()}
     if "low" in v and "high" in v and not v["low"] < v["high"]:
         raise p.error(path, f"`low` ({v['low']!r}) must be less than `high` ({v['high']!r})")
-    prior = {"uniform": lambda: Uniform(v["low"], v["high"]),
-             "normal": lambda: Normal(v["mean"], v["sd"], v["low"], v["high"]),
-             "lognormal": lambda: LogNormal(v["median"], v["sd_log"])}[kind]()
+    prior: Prior
+    if kind == "uniform":
+        prior = Uniform(v["low"], v["high"])
+    elif kind == "normal":
+        prior = Normal(v["mean"], v["sd"], v["low"], v["high"])
+    else:
+        prior = LogNormal(v["median"], v["sd_log"])
     _check_prior_domain(p, path, name, kind, prior, parameter_domain(name, normal_law))
     return prior
 
 
 # Values of the file that are inputs of the model: key path -> the model's input name.
 _MODEL_INPUTS = {("contact", "mu"): "mu", ("contact", "eta"): "eta",
+                 ("contact", "restitution"): "restitution",
+                 ("contact", "normal_stiffness"): "normal_stiffness",
+                 ("contact", "tangential_stiffness_ratio"): "tangential_stiffness_ratio",
                  ("incidence", "speed_m_s"): "speed", ("incidence", "spin_rad_s"): "spin",
                  ("model", "gravity_m_s2"): "gravity"}
 
 
 def _check_values_in_domain(p: _Parser, t: dict) -> None:
     """Fixed values that feed the model must lie in its physical domain (an incident speed of
-    1e5 m/s would otherwise fail later, far from the key that caused it)."""
+    1e5 m/s would otherwise fail later, far from the key that caused it). [contact] values of
+    parameters the contact law does not have are left alone (other models may use them)."""
+    used = model_parameters(t["model"]["normal"], t["model"]["tangential"])
     for (section, key), name in _MODEL_INPUTS.items():
         value = t[section][key]
-        if value is None:
+        if value is None or (section == "contact" and name not in used):
             continue
         domain = parameter_domain(name, t["model"]["normal"])
         if not domain.contains(value):

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from ..model import NORMAL_LAWS, STANDARD_GRAVITY
+from ..model import NORMAL_LAWS, STANDARD_GRAVITY, TANGENTIAL_LAWS
 
 
 @dataclass(frozen=True)
@@ -70,15 +70,32 @@ SECTIONS: dict[str, dict[str, Key]] = {
         "spin_sd_rad_s": _nonneg("bounce-to-bounce standard deviation of the spin", "rad/s"),
     },
     "model": {
-        "normal": Key(str, "normal-force law", "", "kelvin-voigt", choices=NORMAL_LAWS),
+        "normal": Key(str, "normal-force law (docs/model.md §4): the paper's Hertz + linear "
+                           "dashpot, Hunt-Crossley, the DEM linear spring-dashpot, or Hertz "
+                           "with Tsuji's dashpot", "", "kelvin-voigt", choices=NORMAL_LAWS),
+        "tangential": Key(str, "tangential compliance (docs/model.md §5.2): none (rigid "
+                               "tangential contact, the paper's), a Mindlin spring (stiffness "
+                               "proportional to the contact radius) or a linear "
+                               "Cundall-Strack spring, both capped by Coulomb friction", "",
+                          "none", choices=TANGENTIAL_LAWS),
         "gravity_m_s2": _nonneg("gravitational acceleration", "m/s^2", STANDARD_GRAVITY),
     },
     "contact": {
         "mu": _nonneg("Coulomb friction coefficient: its value where it is not inferred, and "
                       "the truth of synthetic campaigns", "", OPTIONAL),
-        "eta": _nonneg("damping coefficient (kg/s for kelvin-voigt, s/m for hunt-crossley): "
+        "eta": _nonneg("damping coefficient of kelvin-voigt (kg/s) and hunt-crossley (s/m): "
                        "its value where it is not inferred, and the truth of synthetic "
                        "campaigns", "kg/s or s/m", OPTIONAL),
+        "restitution": Key(float, "restitution coefficient that sets the damping of the DEM "
+                                  "laws linear-dashpot and hertz-tsuji, as DEM codes take it "
+                                  "(value where not inferred, and synthetic truth)", "",
+                           OPTIONAL, low=0.0, high=1.0, low_open=True),
+        "normal_stiffness": _pos("normal stiffness k_n of linear-dashpot (value where not "
+                                 "inferred, and synthetic truth)", "N/m", OPTIONAL),
+        "tangential_stiffness_ratio": _pos("tangential to normal stiffness (docs/model.md "
+                                           "§5.2; value where not inferred, and synthetic "
+                                           "truth); default Mindlin's 2(1-nu)/(2-nu)", "",
+                                           OPTIONAL),
     },
     "trajectories": {
         "rotation_deg": Key(float, "rotation from the camera frame to the plane-aligned frame "
@@ -116,6 +133,9 @@ PARAMETERS: dict[str, tuple[str, float]] = {
     "eta": ("kg/s or s/m", 0.0),
     "youngs_modulus": ("Pa", 0.0),
     "spin": ("rad/s", -math.inf),
+    "restitution": ("", 0.0),
+    "normal_stiffness": ("N/m", 0.0),
+    "tangential_stiffness_ratio": ("", 0.0),
 }
 PRIOR_KEYS: dict[str, dict[str, Key]] = {
     "uniform": {"low": Key(float, "lower bound"), "high": Key(float, "upper bound")},
@@ -158,10 +178,18 @@ def reference_markdown() -> str:
               + ", ".join(f"`{n}` ({u or 'dimensionless'})" for n, (u, _) in
                           PARAMETERS.items())
               + ". The unit of `eta` is kg/s under `kelvin-voigt` and s/m under "
-                "`hunt-crossley`. A parameter not listed is fixed: `mu` and `eta` at their "
-                "[contact] values, `youngs_modulus` at `ball.youngs_modulus_Pa`, `spin` at "
+                "`hunt-crossley`. Each contact law has its own parameters "
+                "(`bouncebayes.model.model_parameters`): `eta` for `kelvin-voigt` and "
+                "`hunt-crossley`, `restitution` for `linear-dashpot` and `hertz-tsuji`, "
+                "`normal_stiffness` for `linear-dashpot` (which has no `youngs_modulus`), "
+                "`tangential_stiffness_ratio` when `tangential` is not `none`; a prior for a "
+                "parameter the law does not have is refused. A parameter not listed is fixed: "
+                "`mu`, `eta`, `restitution`, `normal_stiffness` at their [contact] values, "
+                "`tangential_stiffness_ratio` at its [contact] value or Mindlin's "
+                "2(1-nu)/(2-nu), `youngs_modulus` at `ball.youngs_modulus_Pa`, `spin` at "
                 "`incidence.spin_rad_s`. A prior must stay inside the physical domain "
-                "(`mu`, `eta` >= 0; `youngs_modulus` > 0).", "",
+                "(`mu`, `eta` >= 0; `youngs_modulus`, `normal_stiffness`, "
+                "`tangential_stiffness_ratio` > 0; `restitution` in (0, 1]).", "",
               "| prior | keys |", "|---|---|"]
     for kind, keys in PRIOR_KEYS.items():
         described = ", ".join(f"`{n}` ({k.doc}"

@@ -43,7 +43,9 @@ def synthesize(experiment: Experiment, *, seed: int, n: int | None = None) -> Ca
 
     Each bounce gets its own incidence (nominal +- the ``*_sd`` spreads) and its own ``mu`` and
     ``eta`` (the ``[contact]`` values +- ``[synth] mu_sd``, ``eta_sd``, truncated at 0); the
-    measured table adds Gaussian noise of the ``[synth]`` sizes and records them as standard
+    other parameters of the contact law (``restitution``, ``normal_stiffness``,
+    ``tangential_stiffness_ratio``, the modulus) are the experiment's values for every bounce.
+    The measured table adds Gaussian noise of the ``[synth]`` sizes and records them as standard
     errors; trajectories are sampled at ``camera_rate_hz`` with ``position_noise_m``.
     """
     s = experiment.synth
@@ -52,18 +54,20 @@ def synthesize(experiment: Experiment, *, seed: int, n: int | None = None) -> Ca
         raise ValueError(f"`n` must be a positive integer; got {n!r}")
     rng = np.random.default_rng(seed)
     inc = experiment.incidence
+    population = {name: experiment.true_value(name) for name in experiment.model_parameters
+                  if name not in ("youngs_modulus", "spin")}
     per = {
-        "mu": _truncated_normal(rng, experiment.true_value("mu"), s["mu_sd"], 0, np.inf, n),
-        "eta": _truncated_normal(rng, experiment.true_value("eta"), s["eta_sd"], 0, np.inf, n),
+        "mu": _truncated_normal(rng, population["mu"], s["mu_sd"], 0, np.inf, n),
+        **({"eta": _truncated_normal(rng, population["eta"], s["eta_sd"], 0, np.inf, n)}
+           if "eta" in population else {}),
         "incidence_speed": _truncated_normal(rng, inc.speed, inc.speed_sd, 0, np.inf, n),
         "incidence_angle": _truncated_normal(rng, inc.angle, inc.angle_sd, 0, 89.9, n),
         "incidence_spin": _truncated_normal(rng, inc.spin, inc.spin_sd, -np.inf, np.inf, n),
     }
-    model = dict(normal_law=experiment.normal_law, gravity=experiment.gravity,
-                 inclination=experiment.inclination)
-    out = simulate(experiment.ball, mu=per["mu"], eta=per["eta"], speed=per["incidence_speed"],
-                   angle=per["incidence_angle"], spin=per["incidence_spin"], errors="flag",
-                   **model)
+    params = experiment.model_values({k: v for k, v in per.items() if k in population}
+                                     | {"spin": per["incidence_spin"]})
+    out = simulate(experiment.ball, speed=per["incidence_speed"], angle=per["incidence_angle"],
+                   errors="flag", **params, **experiment.model_options)
     if out.n_failed:
         raise SynthesisError(f"{experiment.source}: {out.n_failed} of {n} synthetic bounces "
                              f"could not be simulated ({out.failure_summary()}); check "
@@ -79,18 +83,20 @@ def synthesize(experiment: Experiment, *, seed: int, n: int | None = None) -> Ca
     trials = make_trials(experiment, **measured,
                          se={k: np.full(n, sd) for k, sd in noise.items() if sd > 0},
                          labels=[f"bounce_{i + 1:03d}" for i in range(n)], source="synthetic")
-    trajectories = tuple(_trajectory(experiment, rng, {k: v[i] for k, v in per.items()}, model)
+    trajectories = tuple(_trajectory(experiment, rng, {k: v[i] for k, v in per.items()})
                          for i in range(n))
-    return Campaign(trials, trajectories, _truth(experiment, seed, per, noise, out), seed)
+    return Campaign(trials, trajectories, _truth(experiment, seed, population, per, noise, out),
+                    seed)
 
 
-def _truth(experiment: Experiment, seed: int, per: dict, noise: dict, out) -> dict:
+def _truth(experiment: Experiment, seed: int, population: dict, per: dict, noise: dict,
+           out) -> dict:
     """What a synthetic campaign was made from (``truth.json``)."""
     s, n = experiment.synth, len(out.rebound_speed)
     return {
         "seed": seed, "n": n, "experiment": experiment.source,
         "experiment_sha256": experiment.text_sha256, "bouncebayes_version": __version__,
-        "population": {name: experiment.true_value(name) for name in ("mu", "eta")},
+        "population": population,
         "spread": {"mu_sd": s["mu_sd"], "eta_sd": s["eta_sd"]},
         "measurement_noise": noise | {"position_noise_m": s["position_noise_m"],
                                       "camera_rate_hz": s["camera_rate_hz"]},
@@ -103,13 +109,15 @@ def _truth(experiment: Experiment, seed: int, per: dict, noise: dict, out) -> di
     }
 
 
-def _trajectory(experiment: Experiment, rng, bounce: dict, model: dict) -> np.ndarray:
+def _trajectory(experiment: Experiment, rng, bounce: dict) -> np.ndarray:
     """Centre positions sampled at the camera rate, with noise; plane frame, t from 0."""
     s = experiment.synth
-    h = simulate_history(experiment.ball, mu=bounce["mu"], eta=bounce["eta"],
-                         speed=bounce["incidence_speed"], angle=bounce["incidence_angle"],
-                         spin=bounce["incidence_spin"], n_contact=200, n_flight=2,
-                         flight_time=s["flight_time_s"], **model)
+    params = experiment.model_values({k: float(v) for k, v in bounce.items()
+                                      if k in ("mu", "eta")}
+                                     | {"spin": float(bounce["incidence_spin"])})
+    h = simulate_history(experiment.ball, speed=bounce["incidence_speed"],
+                         angle=bounce["incidence_angle"], n_contact=200, n_flight=2,
+                         flight_time=s["flight_time_s"], **params, **experiment.model_options)
     dt = 1.0 / s["camera_rate_hz"]
     t0 = -s["flight_time_s"] + rng.uniform(0.0, dt)
     t = np.arange(t0, h.time[-1], dt)

@@ -29,18 +29,18 @@ class Forward:
             raise ValueError(f"cannot infer {unknown}; inferable parameters: {PARAMETER_ORDER}")
         self.experiment = experiment
         self.names = tuple(names)
-        self.solver = solver or SolverConfig()
+        # no wall-clock limit per call: a posterior pass hands the model every draw at once, and
+        # a compliant contact (every bounce on the ODE, ~25x the closed form's cost) can outlast
+        # any fixed limit on a loaded machine, losing the batch's last rows (status TIMEOUT);
+        # the solver's step cap still bounds every bounce
+        self.solver = solver or SolverConfig(time_limit=None)
         e = experiment
-        nominal = {n: (e.priors[n].ppf(0.5) if n in e.priors else e.fixed_value(n))
-                   for n in ("mu", "eta", "youngs_modulus")}
         spin = e.incidence.spin if spin is None else spin
         speed, angle, spin = (np.array(a, dtype=float).ravel()
                               for a in np.broadcast_arrays(speed, angle, spin))
-        self.model = BounceModel(e.ball, mu=nominal["mu"], eta=nominal["eta"],
-                                 youngs_modulus=nominal["youngs_modulus"], speed=speed,
-                                 angle=angle, spin=spin, inclination=e.inclination,
-                                 gravity=e.gravity, normal_law=e.normal_law, solver=self.solver,
-                                 varying=self.names).prepare()
+        # the experiment's contact law, its fixed parameters, the inferred ones per row
+        self.model: BounceModel = e.bounce_model(speed=speed, angle=angle, spin=spin,
+                                                 varying=self.names, solver=self.solver).prepare()
         self.n_conditions = self.model.n_conditions
 
     def __call__(self, theta: np.ndarray) -> Rebounds:

@@ -83,7 +83,8 @@ class InferenceResult:
                      "n_trials": self.trials.n},
             "experiment": {"file": self.experiment.source, "name": self.experiment.name,
                            "sha256": self.experiment.text_sha256,
-                           "normal_law": self.experiment.normal_law},
+                           "normal_law": self.experiment.normal_law,
+                           "tangential": self.experiment.tangential},
             "memory_budget_bytes": self.memory_budget,
             "bouncebayes_version": __version__, "seconds": self.seconds,
         }

@@ -32,7 +32,7 @@ def refer_to_contact(results: Sequence[Kinematics], experiment) -> tuple[Kinemat
         return ()
     nominal = {name: (experiment.priors[name].ppf(0.5) if name in experiment.priors
                       else experiment.fixed_value(name))
-               for name in ("mu", "eta", "youngs_modulus", "spin")}
+               for name in experiment.model_parameters}
     spin = np.array([k.incidence_spin if k.incidence_spin is not None else nominal["spin"]
                      for k in results])
     v_in = np.array([_velocity(k.incidence_speed, k.incidence_angle, -1.0) for k in results])
@@ -43,12 +43,9 @@ def refer_to_contact(results: Sequence[Kinematics], experiment) -> tuple[Kinemat
     v0, v_sep = v_in, v_out
     gy = experiment.gravity * math.cos(math.radians(experiment.inclination))
     for _ in range(3):  # fixed point: the contact instants depend weakly on the incidence
-        b = simulate(experiment.ball, mu=nominal["mu"], eta=nominal["eta"],
-                     speed=np.hypot(v0[:, 0], v0[:, 1]),
-                     angle=np.degrees(np.arctan2(v0[:, 0], -v0[:, 1])), spin=spin,
-                     youngs_modulus=nominal["youngs_modulus"],
-                     inclination=experiment.inclination, normal_law=experiment.normal_law,
-                     gravity=experiment.gravity, errors="flag")
+        b = simulate(experiment.ball, speed=np.hypot(v0[:, 0], v0[:, 1]),
+                     angle=np.degrees(np.arctan2(v0[:, 0], -v0[:, 1])), errors="flag",
+                     **(nominal | {"spin": spin}), **experiment.model_options)
         tc = np.where(b.ok, b.contact_time, 0.0)
         vs = np.where(b.ok, b.rebound_normal_velocity, v_out[:, 1])
         d_sep = np.where(b.ok, b.separation_overlap, 0.0)

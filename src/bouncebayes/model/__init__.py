@@ -14,9 +14,20 @@ from ._closed_form import rigid_body_rebound as rigid_body_rebound
 from ._config import NORMAL_LAWS as NORMAL_LAWS
 from ._config import PAPER_BALL as PAPER_BALL
 from ._config import STANDARD_GRAVITY as STANDARD_GRAVITY
+from ._config import TANGENTIAL_LAWS as TANGENTIAL_LAWS
 from ._config import Ball as Ball
 from ._config import SolverConfig as SolverConfig
 from ._config import damping_unit as damping_unit
+from ._config import mindlin_stiffness_ratio as mindlin_stiffness_ratio
+from ._config import model_parameters as model_parameters
+from ._derived import DEFAULT_ANGLES as DEFAULT_ANGLES
+from ._derived import DEFAULT_SPEEDS as DEFAULT_SPEEDS
+from ._derived import DerivedQuantity as DerivedQuantity
+from ._derived import ObliqueResponse as ObliqueResponse
+from ._derived import derived_quantities as derived_quantities
+from ._derived import equivalent_linear_dashpot as equivalent_linear_dashpot
+from ._derived import normal_response as normal_response
+from ._derived import oblique_response as oblique_response
 from ._domain import HERTZ_OVERLAP_LIMIT as HERTZ_OVERLAP_LIMIT
 from ._domain import PARAMETER_DOMAINS as PARAMETER_DOMAINS
 from ._domain import Domain as Domain
@@ -26,6 +37,8 @@ from ._engine import BounceModel as BounceModel
 from ._history import BounceFailed as BounceFailed
 from ._history import BounceHistory as BounceHistory
 from ._history import simulate_history as simulate_history
+from ._laws import damping_ratio_restitution as damping_ratio_restitution
+from ._laws import restitution_damping_ratio as restitution_damping_ratio
 from ._results import Bounces as Bounces
 from ._results import Rebounds as Rebounds
 from ._results import SimulationWarning as SimulationWarning
@@ -33,9 +46,12 @@ from ._results import Status as Status
 from ._simulate import simulate as simulate
 
 __all__ = [
-    "HERTZ_OVERLAP_LIMIT", "NORMAL_LAWS", "PAPER_BALL", "PARAMETER_DOMAINS", "STANDARD_GRAVITY",
-    "VARYING", "Ball", "BounceFailed", "BounceHistory", "BounceModel", "Bounces", "Domain",
-    "HertzImpact", "Rebounds", "RigidBodyRebound", "SimulationWarning", "SolverConfig",
-    "Status", "damping_unit", "hertz_elastic_impact", "parameter_domain", "rigid_body_rebound",
-    "simulate", "simulate_history",
+    "DEFAULT_ANGLES", "DEFAULT_SPEEDS", "HERTZ_OVERLAP_LIMIT", "NORMAL_LAWS", "PAPER_BALL", "PARAMETER_DOMAINS", "STANDARD_GRAVITY",
+    "TANGENTIAL_LAWS", "VARYING", "Ball", "BounceFailed", "BounceHistory", "BounceModel",
+    "Bounces", "DerivedQuantity", "Domain", "HertzImpact", "ObliqueResponse", "Rebounds", "RigidBodyRebound", "SimulationWarning",
+    "SolverConfig", "Status", "damping_ratio_restitution", "damping_unit", "derived_quantities",
+    "equivalent_linear_dashpot",
+    "hertz_elastic_impact", "mindlin_stiffness_ratio", "model_parameters", "normal_response",
+    "oblique_response", "parameter_domain",
+    "restitution_damping_ratio", "rigid_body_rebound", "simulate", "simulate_history",
 ]

@@ -9,11 +9,23 @@ from typing import Literal, get_args
 from .._validate import check_choice, check_scalar
 from ._domain import PARAMETER_DOMAINS
 
-NormalLaw = Literal["kelvin-voigt", "hunt-crossley"]
+NormalLaw = Literal["kelvin-voigt", "hunt-crossley", "linear-dashpot", "hertz-tsuji"]
 NORMAL_LAWS: tuple[str, ...] = get_args(NormalLaw)
+TangentialLaw = Literal["none", "mindlin", "linear"]
+TANGENTIAL_LAWS: tuple[str, ...] = get_args(TangentialLaw)
 STANDARD_GRAVITY = 9.80665  # m/s^2 (CGPM 1901)
 
-DAMPING_UNITS = {"kelvin-voigt": "kg/s", "hunt-crossley": "s/m"}
+#: Per normal law: the names of its damping parameter and of its stiffness parameter
+#: (docs/model.md §4). The DEM laws take the restitution coefficient as DEM codes do.
+LAW_PARAMETERS = {"kelvin-voigt": ("eta", "youngs_modulus"),
+                  "hunt-crossley": ("eta", "youngs_modulus"),
+                  "linear-dashpot": ("restitution", "normal_stiffness"),
+                  "hertz-tsuji": ("restitution", "youngs_modulus")}
+DAMPING_UNITS = {"kelvin-voigt": "kg/s", "hunt-crossley": "s/m", "linear-dashpot": "",
+                 "hertz-tsuji": ""}
+#: Parameters of the tangential spring, by tangential law.
+TANGENTIAL_PARAMETERS = {"none": (), "mindlin": ("tangential_stiffness_ratio",),
+                         "linear": ("tangential_stiffness_ratio",)}
 
 
 def check_normal_law(law: str) -> str:
@@ -21,9 +33,38 @@ def check_normal_law(law: str) -> str:
     return check_choice("normal_law", law, NORMAL_LAWS)
 
 
+def check_tangential(law: str) -> str:
+    """Validate a tangential law name."""
+    return check_choice("tangential", law, TANGENTIAL_LAWS)
+
+
 def damping_unit(law: str) -> str:
-    """Unit of the damping coefficient ``eta`` under a normal law (kg/s or s/m)."""
+    """Unit of the damping parameter under a normal law: kg/s (``eta`` of Kelvin–Voigt), s/m
+    (``eta`` of Hunt–Crossley), or dimensionless (the DEM laws' ``restitution``)."""
     return DAMPING_UNITS[check_normal_law(law)]
+
+
+def model_parameters(normal_law: str = "kelvin-voigt", tangential: str = "none"
+                     ) -> tuple[str, ...]:
+    """The per-bounce parameters of a contact law, in a fixed order: ``mu``, the normal law's
+    damping (``eta`` or ``restitution``) and stiffness (``youngs_modulus`` or
+    ``normal_stiffness``), the incident ``spin``, then the tangential spring's
+    (``tangential_stiffness_ratio``). Each may be fixed or inferred."""
+    damping, stiffness = LAW_PARAMETERS[check_normal_law(normal_law)]
+    return ("mu", damping, stiffness, "spin") + TANGENTIAL_PARAMETERS[check_tangential(
+        tangential)]
+
+
+def mindlin_stiffness_ratio(poisson_ratio: float) -> float:
+    """Mindlin's ratio of no-slip tangential to normal contact stiffness, 2(1-nu)/(2-nu).
+
+    For a sphere on a rigid plane ``k_t = 8 G* a`` and ``dF_n/d(delta) = 2 E* a`` with
+    ``G* = G/(2 - nu)``, ``E* = E/(1 - nu^2)``, ``G = E/(2(1 + nu))`` (Mindlin 1949; Johnson
+    1985, §7.2); the ratio ``4 G*/E*`` depends on the Poisson ratio only: 2/3 at nu = 0.5,
+    0.87 at 0.23, 1 at 0 (docs/model.md §5.2).
+    """
+    nu = check_scalar("poisson_ratio", poisson_ratio, low=-1.0, high=0.5, low_open=True)
+    return 2.0 * (1.0 - nu) / (2.0 - nu)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -22,6 +22,14 @@ The bounds, and why:
 - damping: Kelvin–Voigt up to 1e8 kg/s (about the critical damping of a 1 m steel ball on its
   Hertz stiffness: far beyond a ball that still bounces); Hunt–Crossley up to 1e4 s/m (the ball
   stops without rebound once eta V exceeds a few, so 1e4 s/m covers speeds down to 1 mm/s).
+- restitution (the DEM laws' damping parameter) 0.001 to 1: 1 is elastic; below 0.001 the
+  ball barely leaves the surface, and the damping ratio approaches the critical value 1.
+- normal stiffness of the linear spring-dashpot 1 N/m to 1e12 N/m: from a soft foam grain
+  (a 1 mm overlap under a milli-newton) to the Hertz stiffness of a 1 m steel ball at a 10 %
+  overlap.
+- tangential stiffness ratio 0.001 to 100: isotropic elastic solids give 2(1-nu)/(2-nu),
+  2/3 to 4/3 (Mindlin 1949), DEM codes use 2/7 to 1; the range leaves wide margins either
+  side (at 100 the tangential vibration is ten times faster than the normal one).
 - incident speed 1 mm/s to 500 m/s: below 1 mm/s the rebound rises less than 0.05 um; 500 m/s
   is above any ball sport (golf, ~80 m/s) and gas-gun impact tests of spheres, where plastic
   deformation, outside this model, already dominates.
@@ -109,6 +117,12 @@ PARAMETER_DOMAINS: Mapping[str, Domain] = _domains(
     Domain("eta", "kg/s", 0.0, 1e8, "beyond, the ball sticks to the surface for any speed",
            high_by_law=MappingProxyType({"kelvin-voigt": 1e8, "hunt-crossley": 1e4}),
            unit_by_law=MappingProxyType({"kelvin-voigt": "kg/s", "hunt-crossley": "s/m"})),
+    Domain("restitution", "", 1e-3, 1.0, "1 is elastic; below 0.001 the ball barely leaves the "
+                                         "surface"),
+    Domain("normal_stiffness", "N/m", 1.0, 1e12, "from a soft foam grain to a steel ball of "
+                                                 "1 m at a 10 % overlap"),
+    Domain("tangential_stiffness_ratio", "", 1e-3, 100.0,
+           "isotropic elastic solids give 2/3 to 4/3, DEM codes 2/7 to 1"),
     Domain("speed", "m/s", 1e-3, 500.0, "from a bounce that rises 0.05 um to beyond gas-gun "
                                         "impact tests"),
     Domain("spin", "rad/s", -1e5, 1e5, "about a million rpm in either sense"),

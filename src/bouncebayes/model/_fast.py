@@ -42,8 +42,9 @@ import numpy as np
 from numba import njit, prange
 
 from . import _kernel as K
-from ._arrays import (B_I, B_KFAC, B_M, B_R, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPIN, all_valid, at,
-                      element, element_with, gravity_parts, unit_inputs, valid)
+from ._arrays import (B_I, B_KFAC, B_M, B_R, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPIN, LAW_CODES,
+                      all_valid, at, damping_variable, element, element_with, gravity_parts,
+                      initial_force, law_scales, unit_inputs, valid)
 from ._config import SolverConfig
 from ._domain import HERTZ_OVERLAP_LIMIT
 from ._ode import sample, solve_rows, solve_with_segments
@@ -68,10 +69,16 @@ COMPRESSION_NODES = (10, 8, 20)
 # impacts of the prior box reach 0.1; eight gravity nodes still give the same 5e-9 agreement on
 # the rebound as over [0, 0.05], tests/test_model_fast.py) and <= 0.05 for HC (its restitution
 # converges more slowly in gravity); beyond, strong damping and slow impacts may never
-# separate. A law without an entry here goes to the ODE solver.
-DOMAIN = {"kelvin-voigt": (0.6, 0.09), "hunt-crossley": (2.0, 0.05)}
+# separate. The linear spring-dashpot: damping number 2 zeta <= 0.6 (restitution >= 0.37; its
+# initial force 2 zeta V sqrt(m k) nears the peak beyond, a kink as for KV); Tsuji's Hertz
+# law: alpha <= 1 (restitution >= 0.21), in the variable alpha^(1/5) (its separation overlap
+# grows like alpha^(4/5)); both reach 1e-9 (tests/test_model_laws.py). A law without an entry
+# here goes to the ODE solver.
+DOMAIN = {"kelvin-voigt": (0.6, 0.09), "hunt-crossley": (2.0, 0.05),
+          "linear-dashpot": (0.6, 0.09), "hertz-tsuji": (1.0, 0.05)}
 TABLE_SOLVER = SolverConfig(rtol=1e-13, atol=1e-13, max_steps=200_000, time_limit=None)
-LAW_POWER = {"kelvin-voigt": 3.0, "hunt-crossley": 1.0}  # damping = x ** power
+LAW_POWER = {"kelvin-voigt": 3.0, "hunt-crossley": 1.0, "linear-dashpot": 1.0,
+             "hertz-tsuji": 5.0}  # damping = x ** power (_arrays.damping_variable)
 
 # Fallback reasons (per element), 0 = closed form applied.
 FB_NONE, FB_DOMAIN, FB_SLOPE, FB_ODE = 0, 1, 2, 3
@@ -91,9 +98,10 @@ class NormalTable:
     power: float
 
     @property
-    def kv(self) -> bool:
-        """Whether the damping variable is the cube root of the damping number."""
-        return self.power == 3.0
+    def kv(self) -> int:
+        """The law's code (``_arrays.LAW_CODES``), which the kernels' ``kv`` argument carries
+        to select the law's scaling (``_arrays.law_scales``)."""
+        return LAW_CODES[self.law]
 
     @property
     def gravity_first(self) -> np.ndarray:
@@ -139,9 +147,9 @@ def normal_table(law: str) -> NormalTable:
 
 
 @lru_cache(maxsize=None)
-def kernel_tables(law: str) -> tuple[np.ndarray, np.ndarray, float, float, bool]:
+def kernel_tables(law: str) -> tuple[np.ndarray, np.ndarray, float, float, int]:
     """The table of ``law`` in the kernels' layouts (cached): (main, compression, x_max,
-    gamma_max, Kelvin–Voigt)."""
+    gamma_max, the law's code)."""
     t = normal_table(law)
     return t.gravity_first, t.compression_gravity_first, t.x_max, t.gamma_max, t.kv
 
@@ -284,15 +292,9 @@ def _dot(rows, base, tx, n):
 
 @njit(cache=True, inline="always")
 def normal_scales(m, k, eta, gy, vn, kv):
-    """(delta*, t*, damping number, damping variable x, gravity number) of a normal impact."""
-    d_star = (m * vn * vn / k) ** 0.4
-    if kv:
-        damping = eta * (d_star / (m * vn))  # as eta * C_CZ of prepare_conditions
-        x = np.cbrt(damping)
-    else:
-        damping = eta * vn
-        x = damping
-    return d_star, d_star / vn, damping, x, gy * d_star / (vn * vn)
+    """(delta*, t*, damping number, damping variable x, gravity number) of a normal impact
+    under the law of code ``kv``."""
+    return law_scales(kv, m, k, eta, gy, vn)
 
 
 @njit(cache=True, inline="always")
@@ -427,7 +429,7 @@ def _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows,
     if not exact:
         return FB_SLOPE
     f_scale = m * vn * vn / d_star
-    fn_peak = max(vals[T_FN], damping if kv else 0.0) * f_scale
+    fn_peak = max(vals[T_FN], initial_force(kv, damping)) * f_scale
     ft_peak = mu * fn_peak
     if not slides:
         s0 = u0 + r * w0
@@ -440,7 +442,7 @@ def _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows,
             if abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
                 phi = _force_at_impulse(comp, x, gamma, x_max, gamma_max,
                                         abs(s0) / (slip_rate * vn), vals[T_TPK], work, tx, ab)
-                ft_peak = mu * max(phi, damping if kv else 0.0) * f_scale
+                ft_peak = mu * max(phi, initial_force(kv, damping)) * f_scale
     vn_out = vals[T_E] * vn
     out[O_SPEED, i], out[O_ANGLE, i] = speed_angle(u, vn_out)
     out[O_SPIN, i] = w
@@ -597,7 +599,7 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_ma
         if state == CS_OUTSIDE:
             return -3
         t_star, gamma = cond[C_TSTAR, c], cond[C_GAMMA, c]
-        x = np.cbrt(eta * cond[C_CZ, c]) if kv else eta * vn
+        x = damping_variable(kv, eta * cond[C_CZ, c])
         if not x <= x_max:
             return -3
         x_values(cond_rows[c], NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
@@ -624,7 +626,7 @@ def _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, co
     eta_r = theta[r, cols[1]] if cols[1] >= 0 else 0.0
     for c in range(nc):
         eta = eta_r if cols[1] >= 0 else cond[C_ETA, c]
-        stage[0, c] = np.cbrt(eta * cond[C_CZ, c]) if kv else eta * cond[C_VN, c]
+        stage[0, c] = damping_variable(kv, eta * cond[C_CZ, c])
     for c in range(nc):
         state = cond[C_STATE, c]
         x = stage[0, c]
@@ -735,7 +737,7 @@ def gaussian_grid(mu, eta, cond, cond_rows, ball, bounds, x_max, gamma_max, kv, 
                 bad[i, j] = True
         for c in range(nc):
             vn = cond[C_VN, c]
-            x = np.cbrt(eta[j] * cond[C_CZ, c]) if kv else eta[j] * vn
+            x = damping_variable(kv, eta[j] * cond[C_CZ, c])
             if cond[C_STATE, c] != CS_TABLE or not x <= x_max:
                 for i in range(n_mu):
                     bad[i, j] = True

@@ -58,9 +58,12 @@ def _ballistic(t, x0, y0, u0, v0, gx, gy):
             v0 - gy * t)
 
 
-def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: float,
-                     angle: float, spin: float = 0.0, inclination: float = 0.0,
+def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float | None = None,
+                     speed: float, angle: float, spin: float = 0.0, inclination: float = 0.0,
                      youngs_modulus: float | None = None, normal_law: str = "kelvin-voigt",
+                     tangential: str = "none", restitution: float | None = None,
+                     normal_stiffness: float | None = None,
+                     tangential_stiffness_ratio: float | None = None,
                      gravity: float = STANDARD_GRAVITY, solver: SolverConfig | None = None,
                      n_contact: int = 400, n_flight: int = 100,
                      flight_time: float | None = None) -> BounceHistory:
@@ -78,13 +81,17 @@ def simulate_history(ball: Ball = PAPER_BALL, *, mu: float, eta: float, speed: f
         if isinstance(n, bool) or not isinstance(n, int) or n < low:
             raise ValueError(f"`{name}` must be an integer >= {low}; got {n!r}")
     kwargs = dict(mu=mu, eta=eta, speed=speed, angle=angle, spin=spin, inclination=inclination,
-                  youngs_modulus=youngs_modulus, gravity=gravity)
+                  youngs_modulus=youngs_modulus, gravity=gravity, restitution=restitution,
+                  normal_stiffness=normal_stiffness,
+                  tangential_stiffness_ratio=tangential_stiffness_ratio)
     for name, value in kwargs.items():
         if value is not None:
             check_scalar(name, value)
     model = BounceModel(ball, mu=mu, eta=eta, speed=speed, angle=angle, spin=spin,
                         inclination=inclination, youngs_modulus=youngs_modulus, gravity=gravity,
-                        normal_law=normal_law, solver=solver)
+                        normal_law=normal_law, tangential=tangential, restitution=restitution,
+                        normal_stiffness=normal_stiffness,
+                        tangential_stiffness_ratio=tangential_stiffness_ratio, solver=solver)
     explain_invalid(model.values, model.normal_law)
     # the ODE path, its dense output kept: the samples and the summary come from one solve
     res, status, segs, params = solve_with_segments(model.inputs, 0, solver)

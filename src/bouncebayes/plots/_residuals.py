@@ -27,7 +27,6 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 N_DRAWS = 200  # posterior draws the residuals are computed at
-MODEL_PARAMETERS = ("mu", "eta", "youngs_modulus", "spin")
 NOISE = {"rebound_speed": "sigma_speed", "rebound_angle": "sigma_angle"}
 INCIDENCE = ("incidence_speed", "incidence_angle", "incidence_spin")
 STEPS = (1e-4, 1e-3, 1e-2)  # central-difference steps: relative speed, deg, rad/s
@@ -103,7 +102,7 @@ def _model_values(result, draws: dict) -> dict:
     e = result.experiment
     n = next(iter(draws.values())).size
     return {name: draws[name] if name in draws else np.full(n, e.fixed_value(name))
-            for name in MODEL_PARAMETERS}
+            for name in e.model_parameters}
 
 
 def _simulate(result, theta: dict, speed, angle, spin):
@@ -112,10 +111,9 @@ def _simulate(result, theta: dict, speed, angle, spin):
     e = result.experiment
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SimulationWarning)  # failed bounces are NaN here
-        b = simulate(e.ball, mu=theta["mu"], eta=theta["eta"],
-                     youngs_modulus=theta["youngs_modulus"], speed=speed, angle=angle,
-                     spin=spin, inclination=e.inclination, normal_law=e.normal_law,
-                     gravity=e.gravity, errors="flag")
+        values = {k: v for k, v in theta.items() if k != "spin"}
+        b = simulate(e.ball, speed=speed, angle=angle, spin=spin, errors="flag", **values,
+                     **e.model_options)
     ok = b.ok
     return np.where(ok, b.rebound_speed, np.nan), np.where(ok, b.rebound_angle, np.nan)
 
