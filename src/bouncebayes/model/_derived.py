@@ -210,7 +210,22 @@ def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *
     where = _TRANSFER.format(speeds=f"{lo:g}-{hi:g} m/s")
     at_ref = _TRANSFER.format(speeds=f"near {v_ref:g} m/s")
     n = e.shape[0]
-    q = [
+    mu = np.broadcast_to(np.asarray(values.get("mu", np.nan), dtype=float), (n,)).copy()
+    q = [*_curve_rows(v_ref, where, at_ref, e, tc, speeds, obl),
+         *_scalar_rows(v_ref, at_ref, e_ref, tc_ref, (k, c, zeta), mu)]
+    if tangential != "none":
+        ratio = _draws(ball, values, normal_law, tangential)[1][:, -1]
+        q.append(("tangential_stiffness_ratio", "", _RATIO_DEFINITIONS[tangential], where,
+                  ratio, None, None, None))
+    return {name: DerivedQuantity(name, unit, definition, transfer, np.asarray(v), grid,
+                                  grid_name, grid_unit)
+            for name, unit, definition, transfer, v, grid, grid_name, grid_unit in q}
+
+
+def _curve_rows(v_ref, where, at_ref, e, tc, speeds, obl) -> list[tuple]:
+    """The curves of derived_quantities: (name, unit, definition, transfer, draws, grid,
+    grid name, grid unit)."""
+    return [
         ("normal_restitution", "", "v'_n / v_n of a head-on impact at each impact speed "
          "(no spin, no gravity)", where, e, speeds, "impact_speed", "m/s"),
         ("contact_time", "s", "time from first touch to the normal force's return to zero, "
@@ -225,6 +240,13 @@ def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *
         ("rebound_angle", "deg", f"atan(u' / v'_n) of the centre of mass at {v_ref:g} m/s and "
          "each incidence angle", at_ref, obl.rebound_angle, obl.angles, "incidence_angle",
          "deg"),
+    ]
+
+
+def _scalar_rows(v_ref, at_ref, e_ref, tc_ref, dashpot, mu) -> list[tuple]:
+    """The single-valued quantities of derived_quantities, rows as in _curve_rows."""
+    k, c, zeta = dashpot
+    return [
         ("restitution_at_reference", "", f"normal restitution of a head-on impact at "
          f"{v_ref:g} m/s", at_ref, e_ref, None, None, None),
         ("contact_time_at_reference", "s", f"contact time of a head-on impact at {v_ref:g} m/s",
@@ -240,17 +262,8 @@ def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *
          "sqrt(pi^2 + ln^2 e) of that linear spring-dashpot (LIGGGHTS/EDEM's -beta)", at_ref,
          zeta, None, None, None),
         ("friction_coefficient", "", "Coulomb's sliding friction coefficient mu (tangential "
-         "force <= mu x normal force at the contact)", _FRICTION_TRANSFER, np.broadcast_to(
-             np.asarray(values.get("mu", np.nan), dtype=float), (n,)).copy(), None, None,
-         None),
+         "force <= mu x normal force at the contact)", _FRICTION_TRANSFER, mu, None, None, None),
     ]
-    if tangential != "none":
-        ratio = _draws(ball, values, normal_law, tangential)[1][:, -1]
-        q.append(("tangential_stiffness_ratio", "", _RATIO_DEFINITIONS[tangential], where,
-                  ratio, None, None, None))
-    return {name: DerivedQuantity(name, unit, definition, transfer, np.asarray(v), grid,
-                                  grid_name, grid_unit)
-            for name, unit, definition, transfer, v, grid, grid_name, grid_unit in q}
 
 
 _FRICTION_TRANSFER = ("holds for this ball on this surface (this pair of materials, their "
