@@ -11,7 +11,7 @@ from ._common import add_quiet, integer, log, show_progress
 HELP = "many runs from a manifest (TOML [[run]] tables), on a local or remote Dask cluster"
 DESCRIPTION = ("Run `bouncebayes run` for every [[run]] table of MANIFEST.toml (keys: "
                "experiment, data, out, paths relative to the manifest; optional likelihood, "
-               "sampler, seed; a top-level `seed` seeds the runs that give none: run i gets "
+               "sampler, seed, draws; a top-level `seed` seeds the runs that give none: run i gets "
                "child i of numpy's SeedSequence(seed)). Runs go through dask.distributed: a "
                "local cluster of processes by default, or an existing one with --scheduler. "
                "Each finished run writes OUT/batch.json; a rerun skips the runs whose inputs "

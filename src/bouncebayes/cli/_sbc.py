@@ -29,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=integer(0), default=D["seed"], help="seed of the study")
     p.add_argument("--n-trials", type=integer(1), default=D["n_trials"], metavar="N",
                    help="bounces per campaign")
-    p.add_argument("--draws", type=integer(19), default=D["draws"], metavar="N",
+    p.add_argument("--draws", type=integer(100), default=D["draws"], metavar="N",
                    help="posterior draws per campaign (draws + 1 must be a multiple of 20)")
     add_cluster_arguments(p)
 

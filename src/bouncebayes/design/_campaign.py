@@ -12,7 +12,7 @@ from ._errors import design_document, kinematics_errors, table_errors
 
 TRUTH_KEYS = {"mu": ("contact", "mu"), "eta": ("contact", "eta"),
               "youngs_modulus": ("ball", "youngs_modulus_Pa"), "spin": ("incidence", "spin_rad_s")}
-ERROR_TRAJECTORIES = 5  #: simulated trajectories whose kinematics fit gives the errors
+ERROR_TRAJECTORIES = 16  #: simulated trajectories whose kinematics fit gives the errors
 
 
 def setting_errors(doc: dict, setting: tuple, source: str, seed: int) -> dict[str, float]:

@@ -12,7 +12,7 @@ from .._errors import InputFileError
 from ._tasks import Outcome, Task, run_tasks, task_seed
 
 RUN_KEYS = {"experiment": str, "data": str, "out": str, "likelihood": str, "sampler": str,
-            "seed": int}
+            "seed": int, "draws": int}
 REQUIRED = ("experiment", "data", "out")
 TOP_KEYS = {"run", "seed"}
 MARKER = "batch.json"  #: written into a run folder when its task has finished
@@ -67,12 +67,15 @@ def _check_run(path: Path, i: int, run: dict) -> dict[str, Any]:
 def batch_run(run: dict[str, Any], seed: int) -> dict[str, Any]:
     """One ``run`` of the manifest (a task): the whole pipeline into ``run["out"]``; returns
     the posterior summary in words and numbers."""
+    from ..inference import sampler_config
     from ..pipeline import run as pipeline_run
 
     lines: list[str] = []
+    sampler = run.get("sampler", "mh")
     outcome = pipeline_run(run["experiment"], run["data"], run["out"],
-                           likelihood=run.get("likelihood", "gaussian"),
-                           sampler=run.get("sampler", "mh"), seed=seed, log=lines.append)
+                           likelihood=run.get("likelihood", "gaussian"), sampler=sampler,
+                           seed=seed, config=sampler_config(sampler, draws=run.get("draws")),
+                           log=lines.append)
     return {"out": run["out"], "seed": seed, "verdict": outcome.verdict,
             "table": outcome.table, "report": str(outcome.report)}
 
