@@ -77,8 +77,8 @@ def design_figure(result: dict[str, Any], path: str | Path) -> list[Path]:
         ax.set_xlabel("incidence angle from the normal (deg)")
         ax.set_ylabel("P(mu identified): every bounce slides")
         ax.grid(alpha=0.3)
-    fig.suptitle("Expected posterior width against incidence angle (rolling below the dashed "
-                 "lines)", fontsize=10)
+    fig.suptitle("Expected posterior width against incidence angle; left of a vertical line, "
+                 "bounces with that mu leave rolling (mu not identified)", fontsize=10)
     png = Path(path)
     svg = png.with_suffix(".svg")
     fig.savefig(png, dpi=130)

@@ -15,6 +15,9 @@ from ._campaign import design_campaign, setting_errors
 from ._space import MAX_GRID_PARAMETERS, DesignSpace, cost
 
 PRIOR_DRAWS = 4000  #: prior-predictive campaigns behind each p_mu_identified
+#: a design recommended for a target on mu must identify it with at least this probability
+#: (below it a small sd may only reflect a lower bound of mu against the prior's upper end)
+MIN_P_IDENTIFIED = 0.9
 METHOD = ("simulated campaigns: for each design, `campaigns` truths drawn from the prior, a "
           "synthetic campaign each (bouncebayes.data.synthesize, the design's incidence and the "
           "trial-table standard errors it gives), the exact grid posterior of the gaussian "
@@ -162,7 +165,11 @@ def p_mu_identified(experiment, setting, n_bounces, seed: int) -> dict[int, floa
 
 
 def reaches(design: dict, targets: Mapping) -> bool:
-    """Every targeted parameter's expected sd is at or below its target."""
+    """Every targeted parameter's expected sd is at or below its target, and a targeted mu is
+    identified with probability at least MIN_P_IDENTIFIED."""
+    p = design["p_mu_identified"]
+    if "mu" in targets and p is not None and p < MIN_P_IDENTIFIED:
+        return False
     return all(design["expected_sd"][k] <= v for k, v in targets.items())
 
 
@@ -179,7 +186,9 @@ def recommend(designs: list[dict], targets: Mapping) -> dict | None:
                 f"{describe(worst)}", "closest": worst}
     best = min(ok, key=lambda d: (d["cost"], -d["information_gain"]))
     return {"design": best, "reason": f"the cheapest design (cost {best['cost']:g}) whose "
-                                      f"expected posterior sd reaches every target"}
+                                      f"expected posterior sd reaches every target"
+                                      + (f" and that identifies mu with probability >= "
+                                         f"{MIN_P_IDENTIFIED:g}" if "mu" in targets else "")}
 
 
 def describe(d: dict) -> str:
