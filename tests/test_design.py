@@ -149,6 +149,6 @@ def test_design_command_writes_json_figure_and_resumes(tmp_path, capsys):
 def test_design_refuses_bad_input(tmp_path, capsys):
     assert main(["design", PAPER, "--out", str(tmp_path), "--target", "nu=0.1",
                  "--scheduler", "serial"]) == 2
-    assert "`target` names 'nu', which is not inferred" in capsys.readouterr().err
+    assert "`--target` names 'nu', which is not inferred" in capsys.readouterr().err
     assert main(["design", PAPER, "--out", str(tmp_path), "--angles", "95"]) == 2
-    assert "`angles_deg` must be numbers in (0, 90)" in capsys.readouterr().err
+    assert "`--angles` must be numbers in (0, 90); got 95.0" in capsys.readouterr().err

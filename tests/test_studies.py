@@ -12,7 +12,7 @@ import pytest
 from bouncebayes.cli import main
 from bouncebayes.studies import Task, read_manifest, run_tasks, task_seed
 
-SMALL_SBC = ["--campaigns", "3", "--n-trials", "8", "--draws", "199"]
+SMALL_SBC = ["--campaigns", "3", "--n-trials", "8", "--draws", "199", "--grid-points", "96"]
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,7 @@ def test_sbc_on_a_cluster_is_identical_to_the_serial_run(cluster, tmp_path, caps
 
 
 def test_design_on_a_cluster_is_identical_to_the_serial_run(cluster, tmp_path, capsys):
-    base = ["examples/paper.toml", "--angles", "50,70", "--bounces", "5", "--campaigns", "2",
+    base = ["examples/paper.toml", "--angles", "70", "--bounces", "5", "--campaigns", "2",
             "--quiet"]
     assert main(["design", *base, "--out", str(tmp_path / "s"), "--scheduler", "serial"]) == 0
     assert main(["design", *base, "--out", str(tmp_path / "r"),
@@ -149,9 +149,9 @@ def test_batch_runs_a_manifest_on_a_cluster_and_resumes(cluster, demo, tmp_path,
     (tmp_path / "m.toml").write_text(
         'seed = 11\n'
         '[[run]]\nexperiment = "exp.toml"\ndata = "trials.csv"\nout = "runs/a"\n'
-        'sampler = "grid"\ndraws = 500\n'
+        'sampler = "grid"\ndraws = 100\n'
         '[[run]]\nexperiment = "exp.toml"\ndata = "trials.csv"\nout = "runs/b"\n'
-        'sampler = "grid"\ndraws = 500\nseed = 4\n')
+        'sampler = "grid"\ndraws = 100\nseed = 4\n')
     argv = ["batch", str(tmp_path / "m.toml"), "--scheduler", cluster.scheduler_address]
     assert main(argv) == 0
     first = capsys.readouterr().out

@@ -21,6 +21,9 @@ DESCRIPTION = ("For every combination of candidate incidence angles, speeds, num
                ".svg; campaigns are written to DIR/campaigns-HASH/ as they arrive and a rerun "
                "resumes. Cost of a design: bounces x frame rate / 1000 frames/s.")
 OUTPUTS = ("design.json", "design.png", "design.svg")
+SPACE_FLAGS = {"angles_deg": "--angles", "speeds_m_s": "--speeds", "n_bounces": "--bounces",
+               "frame_rates_hz": "--frame-rates", "position_noise_m": "--position-noise",
+               "errors": "--table-errors"}
 
 
 def _numbers(kind=float):
@@ -93,14 +96,23 @@ def run(args: argparse.Namespace) -> int:
     check_out_folder("--out", args.out)
     experiment = load_experiment(args.experiment)
     doc = tomllib.loads(args.experiment.read_text(encoding="utf-8"))
-    space = DesignSpace.for_experiment(
-        experiment, angles_deg=args.angles, speeds_m_s=args.speeds, n_bounces=args.bounces,
-        frame_rates_hz=args.frame_rates, position_noise_m=args.position_noise,
-        campaigns=args.campaigns, errors="table" if args.table_errors else "trajectories")
+    try:
+        space = DesignSpace.for_experiment(
+            experiment, angles_deg=args.angles, speeds_m_s=args.speeds, n_bounces=args.bounces,
+            frame_rates_hz=args.frame_rates, position_noise_m=args.position_noise,
+            campaigns=args.campaigns, errors="table" if args.table_errors else "trajectories")
+    except ValueError as exc:
+        message = str(exc)
+        for name, flag in SPACE_FLAGS.items():
+            message = message.replace(f"`{name}`", f"`{flag}`")
+        raise UserError(message) from None
     store = args.out / f"campaigns-{study_key(doc, space, args.seed)}"
-    result = run_design(doc, space, seed=args.seed, targets=args.target, store=store,
-                        scheduler=args.scheduler, workers=args.workers,
-                        progress=show_progress(args), log=log)
+    try:
+        result = run_design(doc, space, seed=args.seed, targets=args.target, store=store,
+                            scheduler=args.scheduler, workers=args.workers,
+                            progress=show_progress(args), log=log)
+    except ValueError as exc:
+        raise UserError(str(exc).replace("`target`", "`--target`")) from None
     stamp = record(args, {"experiment": args.experiment}, seed=args.seed)
     with staged_output(args.out, "entries", owned=OUTPUTS) as stage:
         write_json(stage / "design.json", result | {"provenance": stamp})

@@ -31,6 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="bounces per campaign")
     p.add_argument("--draws", type=integer(100), default=D["draws"], metavar="N",
                    help="posterior draws per campaign (draws + 1 must be a multiple of 20)")
+    p.add_argument("--grid-points", type=integer(16), default=D["grid_points"], metavar="N",
+                   help="grid points per parameter of each posterior")
     add_cluster_arguments(p)
 
 
@@ -46,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     result = run_sbc(args.campaigns, seed=args.seed, store=args.out / "campaigns",
                      scheduler=args.scheduler, workers=args.workers,
                      progress=show_progress(args), log=log, n_trials=args.n_trials,
-                     draws=args.draws)
+                     draws=args.draws, grid_points=args.grid_points)
     result["provenance"] = record(args, {}, seed=args.seed)
     path = write_json(args.out / "sbc.json", result)
     print(f"SBC: {result['campaigns_done']} of {args.campaigns} campaigns "
