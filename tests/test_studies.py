@@ -141,6 +141,25 @@ def test_manifest_is_checked(tmp_path):
         read_manifest(tmp_path / "m.toml")
 
 
+def test_batch_reports_a_failed_run_and_seeds_the_others(tmp_path, demo, capsys):
+    import shutil
+
+    from bouncebayes.studies import batch_tasks
+
+    shutil.copy(demo.experiment, tmp_path / "exp.toml")
+    (tmp_path / "bad.csv").write_text("rebound_speed,rebound_angle\n1.0,oops\n")
+    (tmp_path / "m.toml").write_text(
+        'seed = 5\n[[run]]\nexperiment = "exp.toml"\ndata = "bad.csv"\nout = "runs/bad"\n')
+    (task,) = batch_tasks(tmp_path / "m.toml")
+    assert task.args[1] == task_seed(5, 0) and task.record == tmp_path / "runs/bad/batch.json"
+    assert main(["batch", str(tmp_path / "m.toml"), "--scheduler", "serial"]) == 1
+    captured = capsys.readouterr()
+    assert "run-0000: FAILED (InputFileError:" in captured.out and "bad.csv" in captured.out
+    assert "0 of 1 runs complete" in captured.out
+    assert "retrying" in captured.err and not (tmp_path / "runs/bad/batch.json").exists()
+
+
+@pytest.mark.slow
 def test_batch_runs_a_manifest_on_a_cluster_and_resumes(cluster, demo, tmp_path, capsys):
     import shutil
 
