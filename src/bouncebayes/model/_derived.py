@@ -34,8 +34,8 @@ DEFAULT_ANGLES = np.arange(5.0, 90.0, 5.0)
 
 _TRANSFER = ("holds for this ball on this surface (this pair of materials, this ball's size and "
              "mass: a DEM particle of another size or another contact partner needs the law, "
-             "not the number), at impact speeds {speeds}; outside that range it is the "
-             "contact law's extrapolation, not a measurement")
+             "not the number); the data measured it at impact speeds {measured}, and "
+             "elsewhere it is the contact law's extrapolation, not a measurement")
 
 
 @dataclass(frozen=True)
@@ -180,13 +180,15 @@ def equivalent_linear_dashpot(mass, restitution, contact_time
 def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *,
                        reference_speed: float, normal_law: str = "kelvin-voigt",
                        tangential: str = "none", speeds=DEFAULT_SPEEDS, angles=DEFAULT_ANGLES,
+                       measured_speeds: tuple[float, float] | None = None,
                        solver: SolverConfig | None = None) -> dict[str, DerivedQuantity]:
     """Every DEM-ready quantity of the draws ``values``, by name (docs/model.md §4.7).
 
     ``reference_speed`` (m/s): the impact speed of the oblique curves and of the linear
     spring-dashpot equivalence (the campaign's incident speed is the natural choice: the data
     hold there). ``speeds``: the curve of normal restitution and contact time (m/s);
-    ``angles``: the oblique curves (deg).
+    ``angles``: the oblique curves (deg). ``measured_speeds``: (lowest, highest) impact speed
+    of the data in m/s, for the transfer notes (default: the reference speed alone).
 
     Names: ``normal_restitution`` and ``contact_time`` (curves over ``speeds``),
     ``tangential_restitution``, ``rebound_spin``, ``rebound_angle`` (curves over ``angles``),
@@ -206,9 +208,9 @@ def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *
     obl = oblique_response(ball, values, speed=v_ref, angles=angles, normal_law=normal_law,
                            tangential=tangential, solver=solver)
     k, c, zeta = equivalent_linear_dashpot(ball.mass, e_ref, tc_ref)
-    lo, hi = float(speeds.min()), float(speeds.max())
-    where = _TRANSFER.format(speeds=f"{lo:g}-{hi:g} m/s")
-    at_ref = _TRANSFER.format(speeds=f"near {v_ref:g} m/s")
+    lo, hi = (v_ref, v_ref) if measured_speeds is None else sorted(map(float, measured_speeds))
+    measured = f"{lo:.3g} m/s" if lo == hi else f"{lo:.3g}-{hi:.3g} m/s"
+    where = at_ref = _TRANSFER.format(measured=measured)
     n = e.shape[0]
     q = [
         ("normal_restitution", "", "v'_n / v_n of a head-on impact at each impact speed "
