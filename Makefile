@@ -56,8 +56,11 @@ lint: $(STAMP)
 
 ## Speed benchmarks (not part of the tests)
 bench: $(STAMP)
-	$(BIN)/python benchmarks/forward.py
-	$(BIN)/python benchmarks/inference.py
+	@for b in benchmarks/[a-z]*.py; do \
+		case $$b in benchmarks/speed_table.py|benchmarks/sbc.py) continue;; esac; \
+		echo "== $$b"; OPENBLAS_NUM_THREADS=1 $(BIN)/python $$b || exit 1; \
+	done
+	$(BIN)/python benchmarks/speed_table.py
 
 clean:
 	rm -rf $(VENV) $(NEWEST) demo-output .pytest_cache

@@ -167,9 +167,40 @@ def test_every_sampling_command_has_the_same_sampler_flags():
     flags = {name: {s for a in sub[name]._actions for s in a.option_strings}
              for name in ("infer", "run", "demo")}
     wanted = {*SAMPLER_FLAGS.values(), "--likelihood", "--sampler", "--seed", "--noise",
-              "--quiet"}
+              "--quiet", "--memory-budget"}
     for name, options in flags.items():
         assert wanted <= options, (name, wanted - options)
+
+
+def test_the_memory_budget_flag_reaches_the_library_and_its_message(tmp_path, capsys):
+    from bouncebayes.cli._common import byte_size
+
+    # binary units, as the library's messages print them
+    assert byte_size("4G") == 4 * 2**30 and byte_size("512MiB") == 512 * 2**20
+    assert byte_size("100000") == 100000
+    demo = bb.data.demo_campaign()
+    out = tmp_path / "run"
+    assert main(["infer", str(demo.experiment), str(demo.trials), "--out", str(out),
+                 "--sampler", "grid", "--grid-points", "3000", "--memory-budget", "16M"]) == 2
+    err = capsys.readouterr().err.strip()
+    # a 3000 x 3000 grid needs hundreds of MiB: refused before it starts, in the flags' names
+    assert err.count("\n") == 0 and "`--memory-budget` = 16.0 MiB" in err
+    assert "`--grid-points`" in err and not out.exists()
+    with pytest.raises(SystemExit) as stop:  # argparse's own usage error
+        main(["infer", str(demo.experiment), str(demo.trials), "--out", str(out),
+              "--memory-budget", "lots"])
+    assert stop.value.code == 2 and "--memory-budget" in capsys.readouterr().err
+
+
+def test_figure_formats_flag_lists_the_files_each_figure_gets():
+    from bouncebayes.cli import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(["report", "somewhere", "--figure-formats", "svg,PDF"])
+    assert args.figure_formats == ("svg", "pdf")
+    assert parser.parse_args(["demo"]).figure_formats == ("png",)
+    with pytest.raises(SystemExit):
+        parser.parse_args(["run", "e.toml", "d", "--out", "o", "--figure-formats", "gif"])
 
 
 def test_library_argument_names_become_flags_in_messages():

@@ -1,4 +1,4 @@
-"""Kernel density estimates of the measured rebounds (bouncebayes.density, MODEL.md §4).
+"""Kernel density estimates of the measured rebounds (bouncebayes.density, docs/likelihoods.md, `kde`).
 
 References: scipy.stats.gaussian_kde (1-D and 2-D), scipy.stats.multivariate_normal, closed-form
 bandwidth rules written out here, scipy.integrate.quad, scipy.special.logsumexp, and the MATLAB

@@ -121,7 +121,7 @@ def test_gaussian_interval_covers_the_truth_in_the_sliding_regime(truth, angle, 
 
 
 def test_gaussian_posterior_narrows_like_one_over_sqrt_n():
-    # measurement model (MODEL.md §5): 4x the bounces halve the posterior sd. The sd of a
+    # measurement model (docs/likelihoods.md, `gaussian`): 4x the bounces halve the posterior sd. The sd of a
     # 55-bounce posterior varies with the campaign by ~ 1/sqrt(2 * 55) ~ 10 %; 25 % allowed.
     exp = experiment()
     sd = {}

@@ -4,7 +4,7 @@ The synthetic bounces below are closed-form ballistic flight, ``r(t) = P + V (t 
 a (t - t_c)^2 / 2`` on each side of an instantaneous impact at ``(t_c, P)``: both sides pass
 through ``P`` at ``t_c``, so their ``y(t)`` cross exactly there and the true incidence/rebound are
 ``V_in``/``V_out``, the quantities ``fit_kinematics`` estimates. Speeds and angles of the truth
-follow from the construction of ``V`` (MODEL.md §1: angle from the normal, rebound positive
+follow from the construction of ``V`` (docs/model.md §2: angle from the normal, rebound positive
 forward). The drag case takes its truth from ``scipy.integrate.solve_ivp`` (DOP853), independent
 of the package's RK4.
 """

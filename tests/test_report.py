@@ -158,7 +158,7 @@ def test_run_on_a_missing_experiment(tmp_path, demo, capsys):
 
 
 def test_run_goes_from_a_folder_of_videos_to_a_report(tmp_path, capsys):
-    """Issue 7: `bouncebayes run` accepts a folder of videos (synthetic 1000 fps renders of
+    """`bouncebayes run` accepts a folder of videos (synthetic 1000 fps renders of
     known bounces, tests/video_helpers.py) and goes from footage to report."""
     import sys
 

@@ -1,5 +1,5 @@
 """Boundary checks shared by every stage: each message names the argument, what was received
-and what is allowed (brief: "Bad input gets a clear error that names the field")."""
+and what is allowed (the project rule: bad input gets a clear error that names the field)."""
 
 from __future__ import annotations
 

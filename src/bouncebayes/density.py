@@ -1,4 +1,4 @@
-"""Kernel density estimates of the measured rebounds, rho_exp(v, theta) (MODEL.md §4).
+"""Kernel density estimates of the measured rebounds, rho_exp(v, theta) (docs/likelihoods.md, the `kde` likelihood).
 
 The paper builds a Gaussian KDE of the rebound speed v_f (m/s) and of the rebound angle theta_f
 (deg) with MATLAB's ``ksdensity`` (normal-reference bandwidth), checks that they are
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Literal, get_args
+from typing import Any, Literal, cast, get_args
 
 import numpy as np
 from numba import njit, prange
@@ -95,7 +95,7 @@ def _r2(points, i, centres, j):
 
 @njit(cache=True, inline="always")
 def _log_mixture_at(points, i, centres, log_norm):
-    """log sum_j exp(-|p_i - c_j|^2 / 2) + log_norm (whitened units), stably: the largest term
+    """Log sum_j exp(-|p_i - c_j|^2 / 2) + log_norm (whitened units), stably: the largest term
     (nearest centre) is factored out, so far tails stay finite. NaN -> NaN, +-inf -> -inf."""
     r2min = _r2(points, i, centres, 0)  # NaN or inf only for a NaN or infinite point
     if not np.isfinite(r2min):
@@ -149,7 +149,7 @@ class KDE1D:
         object.__setattr__(self, "bandwidth", h)
 
     def logpdf(self, x: Any) -> np.ndarray:
-        """log f(x) for any-shaped ``x``; finite far in the tails, where f(x) underflows to 0."""
+        """Log f(x) for any-shaped ``x``; finite far in the tails, where f(x) underflows to 0."""
         x = as_float_array("x", x)
         h = self.bandwidth
         log_norm = -math.log(self.data.size * h * math.sqrt(2.0 * math.pi))
@@ -187,7 +187,8 @@ class Correlation:
 
 def pearson(x: Any, y: Any) -> Correlation:
     """Pearson correlation of two equally long 1-D samples (``scipy.stats.pearsonr``)."""
-    return _pearson(*_check_pair(x, y, ("x", "y"), ({}, {})), names=("x", "y"))
+    xa, ya = _check_pair(x, y, ("x", "y"), ({}, {}))
+    return _pearson(xa, ya, names=("x", "y"))
 
 
 def _pearson(x: np.ndarray, y: np.ndarray, names: tuple[str, str]) -> Correlation:
@@ -245,7 +246,7 @@ class ReboundDensity:
         return np.outer(h, h) * np.array([[1.0, r], [r, 1.0]])
 
     def logpdf(self, speed: Any, angle: Any) -> np.ndarray:
-        """log rho_exp(speed, angle), broadcasting the two arrays (m/s, deg)."""
+        """Log rho_exp(speed, angle), broadcasting the two arrays (m/s, deg)."""
         v, t = as_float_array("speed", speed), as_float_array("angle", angle)
         if self.kind == "product":  # each marginal at its own points, then broadcast
             broadcast(speed=v, angle=t)
@@ -284,17 +285,18 @@ def rebound_density(speed: Any, angle: Any, *, kind: Literal["auto", "product", 
     ``"normal-reference"``, so that ``"scott"``/``"silverman"`` reproduce scipy exactly).
     """
     v, t = _check_pair(speed, angle, ("speed", "angle"), (SPEED_LIMITS, ANGLE_LIMITS))
-    kind = check_choice("kind", kind, ("auto", *KINDS))
+    requested = check_choice("kind", kind, ("auto", *KINDS))
     alpha = check_scalar("alpha", alpha, low=0.0, high=1.0, low_open=True, high_open=True)
-    bandwidth = _check_bandwidth(bandwidth)
+    bw = _check_bandwidth(bandwidth)
     corr = _pearson(v, t, ("speed", "angle"))
-    chosen, reason = _decide(kind, corr, alpha)
+    chosen, reason = _decide(requested, corr, alpha)
     if chosen == "joint" and not abs(corr.r) < 1.0 - 1e-10:  # R singular to ~1e-10
         raise ValueError(f"`speed` and `angle` lie on a line ({corr.text()}), so a joint KDE "
                          "is degenerate; pass kind='product' or measure more bounces")
-    h, rule = _axis_bandwidths(v, t, bandwidth, dim=1 if chosen == "product" else 2)
+    h, rule = _axis_bandwidths(v, t, bw, dim=1 if chosen == "product" else 2)
     r = corr.r if chosen == "joint" else 0.0
-    return ReboundDensity(chosen, KDE1D(v, h[0], rule), KDE1D(t, h[1], rule), r, corr, reason)
+    return ReboundDensity(cast(Kind, chosen), KDE1D(v, h[0], rule), KDE1D(t, h[1], rule), r, corr,
+                          reason)
 
 
 def _decide(kind: str, corr: Correlation, alpha: float) -> tuple[str, str]:
@@ -314,7 +316,8 @@ def _check_bandwidth(bw: Any) -> str | tuple[float, float]:
     if np.shape(bw) != (2,):
         raise ValueError(f"`bandwidth` must be one of {', '.join(map(repr, RULES))} or a pair "
                          f"(speed m/s, angle deg); got {bw!r}")
-    return tuple(check_scalar("bandwidth", b, low=0.0, low_open=True) for b in bw)
+    low, high = (check_scalar("bandwidth", b, low=0.0, low_open=True) for b in bw)
+    return (low, high)
 
 
 def _axis_bandwidths(v: np.ndarray, t: np.ndarray, bw: str | tuple[float, float], dim: int):
@@ -342,6 +345,7 @@ class VariableSummary:
     bin_edges: np.ndarray = field(repr=False)
 
     def to_dict(self) -> dict[str, Any]:
+        """The summary as plain JSON-ready numbers."""
         return {"n": self.n, "mean": self.mean, "sd": self.sd, "min": self.min, "max": self.max,
                 "kde_bandwidth": self.kde.bandwidth, "bandwidth_rule": self.kde.rule,
                 "histogram_bin_edges": self.bin_edges.tolist()}
@@ -383,7 +387,7 @@ def summarize(speed: Any, angle: Any, *, bandwidth: BandwidthRule | tuple[float,
     kind = "joint" if corr.rejects_zero(alpha) else "product"
     warnings = _warnings(corr, alpha, hv, ht)
     return DataSummary(_summarize_one(v, hv, rule), _summarize_one(t, ht, rule), corr, alpha,
-                       kind, warnings)
+                       cast(Kind, kind), warnings)
 
 
 def _warnings(corr: Correlation, alpha: float, hv: float, ht: float) -> tuple[str, ...]:

@@ -10,7 +10,6 @@ exactly as they were; files of the user's own in an earlier run folder are kept.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import shutil
 import tempfile
 import time
@@ -71,25 +70,14 @@ def data_kind(data: Path) -> str:
     raise InputFileError(data, "holds neither trajectory files (*.csv, *.txt) nor videos")
 
 
-def accepts(function: Callable, name: str) -> bool:
-    """Whether ``function`` takes the keyword ``name`` (stages gain ``progress=`` one by one)."""
-    return name in inspect.signature(function).parameters
-
-
-def _progress_for(function: Callable, progress: bool) -> dict:
-    """``{"progress": progress}`` for a stage that offers progress bars, else nothing."""
-    return {"progress": progress} if accepts(function, "progress") else {}
-
-
 def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], None] = print,
                 progress: bool = False, **fit_kwargs):
     """The trial table of a folder of trajectories, written to ``out``
-    (:func:`bouncebayes.kinematics.trial_table_from_folder`, with a progress bar if asked and
-    the stage offers one)."""
+    (:func:`bouncebayes.kinematics.trial_table_from_folder`, with a progress bar if asked)."""
     from .kinematics import trial_table_from_folder
 
-    return trial_table_from_folder(folder, experiment, out, log=log, **fit_kwargs,
-                                   **_progress_for(trial_table_from_folder, progress))
+    return trial_table_from_folder(folder, experiment, out, log=log, progress=progress,
+                                   **fit_kwargs)
 
 
 def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
@@ -165,7 +153,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         likelihood: str = "gaussian", sampler: str = "mh", seed: int = 0, config=None,
         noise: str = "auto", progress: bool = False, log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
-        argv: Sequence[str] | None = None) -> RunOutcome:
+        argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",),
+        memory_budget: int | None = None) -> RunOutcome:
     """Run every stage into the run folder ``out``, which changes only if all succeed.
 
     Arguments:
@@ -184,20 +173,26 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         fps: the frame rate of videos (required for image-sequence folders; overrides a video
             file's).
         argv: the command line, recorded in the provenance of every file.
+        figure_formats: the files of each figure: PNG always, and "svg" or "pdf" if asked.
+        memory_budget: as :func:`bouncebayes.inference.infer` (bytes; its default if None).
     """
     out, data, experiment_path = Path(out), Path(data), Path(experiment_path)
     check_run_folder(out)
     record = provenance(inputs={"experiment": experiment_path, "data": data, "truth": truth},
                         seed=seed, argv=argv, config={
                             "likelihood": likelihood, "sampler": sampler, "noise": noise,
-                            "sampler_config": config, "fps": fps})
+                            "sampler_config": config, "fps": fps,
+                            "figure_formats": list(figure_formats),
+                            "memory_budget": memory_budget})
     settings = dict(likelihood=likelihood, sampler=sampler, seed=seed, config=config,
                     noise=noise, progress=progress)
+    if memory_budget is not None:
+        settings["memory_budget"] = memory_budget
     times: dict[str, float] = {}
     with staged_output(out, "folder") as stage:
         result, prop = _analyse(experiment_path, data, stage, out, settings, times, log, fps,
                                 truth)
-        report = _draw(result, prop, stage, times, log, record)
+        report = _draw(result, prop, stage, times, log, record, figure_formats)
         stamp_tree(stage, record)
         carry_over(out, stage, log)
     from .inference import format_table
@@ -233,7 +228,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     times["inference"] = time.perf_counter() - start
 
     start = _stage(3, "propagation of the posterior", log)
-    prop = propagate(result, **_progress_for(propagate, settings["progress"]))
+    prop = propagate(result)
     write_propagation(prop, stage)
     times["propagation"] = time.perf_counter() - start
     return result, prop
@@ -241,7 +236,9 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
 
 def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
     """The run's trials, and its copy of the trial table in ``stage``."""
+    from ._provenance import file_sha256, read_provenance
     from .data import load_trials
+    from .kinematics import trials_from_kinematics
 
     kind = data_kind(data)
     table = stage / TRIALS_FILE
@@ -250,18 +247,21 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
         return load_trials(data, experiment)
     folder = _track_videos(data, experiment, stage, log, fps, progress) \
         if kind == "videos" else data
-    trial_table(folder, experiment, table, log=log, progress=progress)
-    trials = load_trials(table, experiment)
-    return dataclasses.replace(trials, source=str(out / TRIALS_FILE))  # not the staging path
+    _, results = trial_table(folder, experiment, table, log=log, progress=progress)
+    # the fitted kinematics go on as they are, not back through the file just written
+    trials = trials_from_kinematics(results, experiment)
+    return dataclasses.replace(trials, source=str(out / TRIALS_FILE),  # not the staging path
+                               sha256=file_sha256(table), provenance=read_provenance(table))
 
 
-def _draw(result, prop, stage: Path, times: dict, log, record: dict) -> Path:
+def _draw(result, prop, stage: Path, times: dict, log, record: dict,
+          formats: Sequence[str]) -> Path:
     """Stages 4-5: figures and the report (written into ``stage``)."""
     from .report import load_truth, make_figures, render_report
 
     start = _stage(4, "figures", log)
     truth_values = load_truth(stage)
-    figures = make_figures(result, prop, stage, truth_values)
+    figures = make_figures(result, prop, stage, truth_values, formats=formats)
     times["figures"] = time.perf_counter() - start
 
     start = _stage(5, "report", log)
@@ -273,7 +273,7 @@ def _draw(result, prop, stage: Path, times: dict, log, record: dict) -> Path:
 
 def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
                   log: Callable[[str], None] = lambda message: None,
-                  progress: bool = False) -> Path:
+                  progress: bool = False, figure_formats: Sequence[str] = ("png",)) -> Path:
     """Redraw the figures and rewrite ``report.html`` of a run folder from its files
     (propagating the posterior first if the folder has no propagation yet). Every file is
     checked first, and a damaged one is named; the folder changes only when all is done."""
@@ -294,10 +294,10 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
             from .propagation import propagate, write_propagation
 
             log("propagating the posterior ...")
-            prop = propagate(result, **_progress_for(propagate, progress))
+            prop = propagate(result)
             written += write_propagation(prop, stage).values()
         log("figures ...")
-        figures = make_figures(result, prop, stage, truth)
+        figures = make_figures(result, prop, stage, truth, formats=figure_formats)
         report = render_report(result, prop.summary(), figures, stage, truth,
                                provenance=shown)
         for path in [*written, *(stage / "figures").rglob("*")]:

@@ -19,8 +19,7 @@ from scipy import integrate, stats
 
 from ._io import write_json, write_with
 from .data import Experiment, Trials
-from .inference import InferenceResult
-from .inference._summary import marginal_modes
+from .inference import InferenceResult, marginal_modes
 from .model import BounceFailed, Bounces, simulate_history
 
 N_DRAWS = 2000  # draws propagated (bounce summaries, predictive)

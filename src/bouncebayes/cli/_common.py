@@ -67,6 +67,40 @@ def real(text: str) -> float:
     return value
 
 
+_SIZE = re.compile(r"\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*(|b|k|kb|kib|m|mb|mib|g|gb|gib|t|tb|tib)\s*",
+                   re.IGNORECASE)
+_SIZE_UNITS = {"": 1, "b": 1, "k": 2**10, "m": 2**20, "g": 2**30, "t": 2**40}
+
+
+def byte_size(text: str) -> int:
+    """An argparse type: a memory size in bytes, ``4G``, ``512MiB``, ``2.5gb`` (binary units)."""
+    m = _SIZE.fullmatch(text)
+    if m is None:
+        raise argparse.ArgumentTypeError(f"must be a size such as 4G, 512M or 2GiB; got {text!r}")
+    return int(float(m[1]) * _SIZE_UNITS[m[2][:1].lower()])
+
+
+FIGURE_FORMAT_CHOICES = ("png", "svg", "pdf")
+
+
+def figure_format_list(text: str) -> tuple[str, ...]:
+    """An argparse type: comma-separated figure formats (PNG is always written)."""
+    names = tuple(t.strip().lower().lstrip(".") for t in text.split(",") if t.strip())
+    bad = [n for n in names if n not in FIGURE_FORMAT_CHOICES]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"must be a comma-separated list of "
+                                         f"{', '.join(FIGURE_FORMAT_CHOICES)}; got {text!r}")
+    return names
+
+
+def add_figure_formats(p: argparse.ArgumentParser) -> None:
+    """``--figure-formats``: which files each figure is written as."""
+    p.add_argument("--figure-formats", type=figure_format_list, default=("png",),
+                   metavar="LIST",
+                   help="figure files to write, comma-separated from png, svg, pdf (PNG is "
+                        "always written: the report embeds it; default png)")
+
+
 # ------------------------------------------------------------------------- outputs
 
 def _nearest_existing(path: Path) -> Path:
@@ -200,7 +234,17 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--grid-points", type=integer(), metavar="N",
                    help="grid points per parameter (default 2048 / 512 / 96 for 1 / 2 / 3 "
                         "parameters)")
+    g.add_argument("--memory-budget", type=byte_size, default=None, metavar="SIZE",
+                   help="memory the inference may hold at once, e.g. 4G or 512M (default 2G); "
+                        "a request that needs more is refused before it starts")
     add_quiet(p)
+
+
+def inference_options(args: argparse.Namespace) -> dict:
+    """The keyword arguments of :func:`bouncebayes.inference.infer` the flags set besides the
+    sampler configuration (the memory budget)."""
+    budget = getattr(args, "memory_budget", None)
+    return {} if budget is None else {"memory_budget": budget}
 
 
 def sampler_config(args: argparse.Namespace):

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from ._common import (add_out_folder, add_sampler_arguments, check_out_folder, flag_names,
-                      record, sampler_config, show_progress)
+                      inference_options, record, sampler_config, show_progress)
 
 HELP = "posterior of the contact parameters from a trial table"
 DESCRIPTION = ("Bayesian calibration: the posterior of the parameters listed under [parameters] "
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     config = sampler_config(args)
     result = infer(experiment, trials, likelihood=args.likelihood, sampler=args.sampler,
                    seed=args.seed, config=config, noise=args.noise,
-                   progress=show_progress(args))
+                   progress=show_progress(args), **inference_options(args))
     stamp = record(args, {"experiment": args.experiment, "trials": args.trials},
                    seed=args.seed, config=run_settings(args, config))
     with staged_output(args.out, "entries", owned=OUTPUTS) as stage:

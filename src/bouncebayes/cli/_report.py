@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import add_quiet, log, show_progress
+from ._common import add_figure_formats, add_quiet, log, show_progress
 
 HELP = "redraw the figures and write DIR/report.html of a run folder"
 DESCRIPTION = ("Write DIR/report.html, one self-contained file (figures embedded) that opens "
@@ -18,6 +18,7 @@ DESCRIPTION = ("Write DIR/report.html, one self-contained file (figures embedded
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``report``."""
     p.add_argument("folder", type=Path, metavar="DIR", help="a run folder")
+    add_figure_formats(p)
     add_quiet(p)
 
 
@@ -25,6 +26,7 @@ def run(args: argparse.Namespace) -> int:
     """Rebuild the report."""
     from ..pipeline import report_folder
 
-    report = report_folder(args.folder, argv=args.argv, log=log, progress=show_progress(args))
+    report = report_folder(args.folder, argv=args.argv, log=log, progress=show_progress(args),
+                           figure_formats=args.figure_formats)
     print(f"report: {report}")
     return 0

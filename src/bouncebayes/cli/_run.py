@@ -6,12 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._common import (add_sampler_arguments, check_out_folder, flag_names, log, real,
-                      sampler_config, show_progress)
+from ._common import (add_figure_formats, add_sampler_arguments, check_out_folder, flag_names,
+                      inference_options, log, real, sampler_config, show_progress)
 
 HELP = "the whole job: data -> kinematics -> inference -> propagation -> figures -> report"
 DESCRIPTION = ("Run every stage on DATA and put all results in DIR: trial table, posterior.nc, "
-               "summary.json, propagation, figures (PNG and SVG) and report.html. DATA is a "
+               "summary.json, propagation, figures (PNG; SVG/PDF with --figure-formats) and report.html. DATA is a "
                "trial table (CSV), a folder of trajectory files (t,x,y in s and m, or Tracker "
                "text), or a folder of videos (mp4, avi, mov, or sub-folders of PNG/TIFF "
                "frames). DIR changes all at once: the results are made in a staging folder "
@@ -34,6 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="frame rate of the videos in frames/s (needed for folders of image "
                         "frames; overrides the rate stored in a video file, which high-speed "
                         "cameras often set to the playback rate)")
+    add_figure_formats(p)
     add_sampler_arguments(p)
 
 
@@ -41,6 +42,7 @@ def add_demo_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``demo``."""
     p.add_argument("--out", type=Path, default=Path("demo-output"), metavar="DIR",
                    help="run folder (new, empty, or an earlier run's)")
+    add_figure_formats(p)
     add_sampler_arguments(p)
 
 
@@ -70,7 +72,8 @@ def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | N
     outcome = run(experiment, data, args.out, likelihood=args.likelihood, sampler=args.sampler,
                   seed=args.seed, config=sampler_config(args), noise=args.noise,
                   progress=show_progress(args), log=log, truth=truth,
-                  fps=getattr(args, "fps", None), argv=args.argv)
+                  fps=getattr(args, "fps", None), argv=args.argv,
+                  figure_formats=args.figure_formats, **inference_options(args))
     print(flag_names(outcome.table))
     print(outcome.verdict)
     times = ", ".join(f"{k} {v:.1f}" for k, v in outcome.stage_seconds.items())

@@ -85,7 +85,15 @@ def synthesize(experiment: Experiment, *, seed: int, n: int | None = None) -> Ca
                          labels=[f"bounce_{i + 1:03d}" for i in range(n)], source="synthetic")
     trajectories = tuple(_trajectory(experiment, rng, {k: v[i] for k, v in per.items()})
                          for i in range(n))
-    truth = {
+    return Campaign(trials, trajectories, _truth(experiment, seed, population, per, noise, out),
+                    seed)
+
+
+def _truth(experiment: Experiment, seed: int, population: dict, per: dict, noise: dict,
+           out) -> dict:
+    """What a synthetic campaign was made from (``truth.json``)."""
+    s, n = experiment.synth, len(out.rebound_speed)
+    return {
         "seed": seed, "n": n, "experiment": experiment.source,
         "experiment_sha256": experiment.text_sha256, "bouncebayes_version": __version__,
         "population": population,
@@ -99,7 +107,6 @@ def synthesize(experiment: Experiment, *, seed: int, n: int | None = None) -> Ca
             "contact_time": out.contact_time.tolist(), "regime": out.regime.tolist()},
         "share_rolling": float(np.mean(out.rolling)),
     }
-    return Campaign(trials, trajectories, truth, seed)
 
 
 def _trajectory(experiment: Experiment, rng, bounce: dict) -> np.ndarray:

@@ -67,7 +67,7 @@ def kinematics_from_folder(folder: str | os.PathLike, *,
                            pattern: str | Sequence[str] = ("*.csv", "*.txt"),
                            rotation_deg: float = 0.0, length_unit: LengthUnit = "m",
                            ball=None, spin_bound: float = 0.0, config: FitConfig | None = None,
-                           **options) -> FolderKinematics:
+                           progress: bool = False, **options) -> FolderKinematics:
     """Read and fit every file in ``folder`` matching ``pattern`` (not recursive).
 
     Files are taken in natural file-name order (``b2`` before ``b10``); ``spin.csv`` is not a
@@ -80,6 +80,7 @@ def kinematics_from_folder(folder: str | os.PathLike, *,
     file is read. ``ball`` (radius, inertia_factor) and the spins allow for spin energy in the
     energy gate: a rebound may gain ``kappa r^2 w^2`` in ``v^2`` with ``w`` the measured
     ``|spin| + 3 se``, or ``spin_bound`` (rad/s) where not measured; without ``ball``, none.
+    ``progress`` shows a progress bar over the files (tqdm).
 
     Raises:
         InputFileError: ``folder`` is not a folder or holds no matching file; a bad spin table.
@@ -96,7 +97,7 @@ def kinematics_from_folder(folder: str | os.PathLike, *,
     results: list[Kinematics] = []
     failures: list[tuple[str, str]] = []
     notes: list[tuple[str, str]] = []
-    for path in files:
+    for path in _bar(files, progress):
         try:
             traj = read_trajectory(path, rotation_deg=rotation_deg, length_unit=length_unit)
             n = find_bounces(traj).size
@@ -112,6 +113,15 @@ def kinematics_from_folder(folder: str | os.PathLike, *,
         notes += [(path.name, note) for note in traj.notes]
         _collect(fits, rows, spins is not None, results, failures)
     return FolderKinematics(tuple(results), tuple(failures), tuple(notes), len(files))
+
+
+def _bar(files: list[Path], show: bool):
+    """The files, behind a tqdm progress bar if asked (and there is more than one)."""
+    if not show or len(files) < 2:
+        return files
+    from tqdm.auto import tqdm
+
+    return tqdm(files, desc="trajectories", unit="file", leave=False)
 
 
 def _collect(fits, rows: list[SpinRow | None], with_spin: bool, results: list[Kinematics],
@@ -196,7 +206,7 @@ def write_trial_table(path: str | os.PathLike, results: Sequence[Kinematics], *,
 
 def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os.PathLike,
                             *, log=print, provenance: Mapping[str, Any] | None = None,
-                            **options) -> tuple[FolderKinematics, tuple[Kinematics, ...]]:
+                            progress: bool = False, **options) -> tuple[FolderKinematics, tuple[Kinematics, ...]]:
     """The experiment's trial table from a folder of trajectories.
 
     Every file is fitted with the experiment's ``[trajectories]`` settings (rotation, length
@@ -206,7 +216,8 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
     allowed for in the energy gate, the
     results referred to the contact instants (:func:`refer_to_contact`) and written to ``out``
     with ``provenance`` plus what this step used (settings, input files and their SHA-256).
-    ``log`` gets the summary of which files were used and why others were not. Returns the
+    ``log`` gets the summary of which files were used and why others were not; ``progress``
+    shows a progress bar over the files. Returns the
     folder's fits and the referred kinematics that were written.
 
     Raises:
@@ -221,7 +232,8 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
     options = {"drag": s["drag"], "drag_k": k, "drag_k_max": k_max} | options
     found = kinematics_from_folder(folder, rotation_deg=s["rotation_deg"],
                                    length_unit=s["length_unit"], ball=ball,
-                                   spin_bound=_spin_bound(experiment), **options)
+                                   spin_bound=_spin_bound(experiment), progress=progress,
+                                   **options)
     log(found.summary())
     if not found.results:
         raise InputFileError(folder, "no usable trajectory file: nothing written")
