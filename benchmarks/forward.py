@@ -31,6 +31,14 @@ Timings on a shared machine are noisy: every rate is the best of several repeats
 the wall-clock rates the CPU-time rates (``*_per_cpu_s``: bounces per second of CPU time of
 the process, all threads together) are given, which contention for the cores disturbs less.
 
+5. the compliant contact (``tangential="mindlin"``, docs/model.md §5.2; every bounce on the ODE
+   path): the same accuracy ladder against a tight DOP853 reference of the compliant equations
+   (``tests/reference_scipy.py``), then bounces per second of ``bb.simulate`` (wall and CPU
+   time) against a loop of ``reference_bounce(method="RK45", tangential="mindlin")`` at the
+   loosest tolerance meeting the same 1e-7 target, in the same run. Draws: the four normal
+   laws in turn, stiffness ratios 0.3-1.5, the rest as above. ``--compliant`` runs this part
+   alone and writes ``benchmarks/results/forward_compliant.json``.
+
 ``python benchmarks/forward.py --quick`` takes a few minutes; the last stdout line is one JSON
 object with the rates, the ratios and the errors, also written to
 ``benchmarks/results/forward.json`` (its ``quick`` field says which run).
@@ -269,11 +277,138 @@ def summarize(acc: dict, sp: dict, sizes: tuple[int, ...], quick: bool) -> dict:
     }
 
 
+COMPLIANT_LAWS = ("kelvin-voigt", "hunt-crossley", "linear-dashpot", "hertz-tsuji")
+
+
+def compliant_draws(n: int, seed: int) -> list[dict]:
+    """Compliant bounces, one keyword set per normal law (each law's own damping parameter)."""
+    rng = np.random.default_rng(seed)
+    p = draw(n, seed) | {"ratio": rng.uniform(0.3, 1.5, n), "e": rng.uniform(0.4, 1.0, n),
+                         "hc": rng.uniform(0.0, 0.5, n), "kn": 10.0 ** rng.uniform(4, 5, n)}
+    out = []
+    for j, law in enumerate(COMPLIANT_LAWS):
+        sel = np.arange(n) % len(COMPLIANT_LAWS) == j
+        kw = {k: p[k][sel] for k in ("mu", "speed", "angle", "spin", "inclination")}
+        kw |= {"normal_law": law, "tangential": "mindlin",
+               "tangential_stiffness_ratio": p["ratio"][sel]}
+        kw |= ({"eta": p["eta"][sel]} if law == "kelvin-voigt" else
+               {"eta": p["hc"][sel]} if law == "hunt-crossley" else {"restitution": p["e"][sel]})
+        if law == "linear-dashpot":
+            kw["normal_stiffness"] = p["kn"][sel]
+        out.append(kw)
+    return out
+
+
+def _rows(groups: list[dict]):
+    """Each bounce of ``compliant_draws`` as keyword arguments of ``reference_bounce``."""
+    for kw in groups:
+        n = kw["speed"].size
+        for i in range(n):
+            yield {k: (v if isinstance(v, str) else float(v[i])) for k, v in kw.items()}
+
+
+def compliant_errors(groups, refs, solve) -> float:
+    """Largest relative error (floors V, 1 deg, V / r) of ``solve(kw)`` over the bounces."""
+    worst = 0.0
+    for kw, ref in zip(_rows(groups), refs, strict=True):
+        got = solve(kw)
+        v = kw["speed"]
+        for q, floor in (("rebound_speed", v), ("rebound_angle", 1.0),
+                         ("rebound_spin", v / BALL.radius)):
+            b = getattr(ref, q)
+            worst = max(worst, abs(float(getattr(got, q)) - b) / max(abs(b), floor))
+    return worst
+
+
+def compliant_rate(groups, rtol: float, repeats: int, clock) -> float:
+    """Bounces per second (of ``clock``) of ``bb.simulate`` over the groups, best of repeats."""
+    n = sum(kw["speed"].size for kw in groups)
+    solver = bb.SolverConfig(rtol=rtol, atol=rtol)
+    best = math.inf
+    for _ in range(repeats):
+        t0 = clock()
+        for kw in groups:
+            res = bb.simulate(BALL, method="ode", solver=solver, **kw)
+            assert res.n_failed == 0, res.failure_summary()
+        best = min(best, clock() - t0)
+    return n / best
+
+
+def compliant_scipy_rate(groups, rtol: float, clock) -> float:
+    """Bounces per second (of ``clock``) of a loop of SciPy's RK45 on the compliant contact."""
+    rows = list(_rows(groups))
+    t0 = clock()
+    for kw in rows:
+        reference_bounce(BALL, method="RK45", rtol=rtol, atol=rtol, **kw)
+    return len(rows) / (clock() - t0)
+
+
+def compliant_accuracy(n_acc: int) -> dict:
+    """The loosest rung of each solver's ladder meeting TARGET against DOP853 at 1e-13."""
+    groups = compliant_draws(n_acc, seed=11)
+    refs = [reference_bounce(BALL, **REFERENCE, **kw) for kw in _rows(groups)]
+    ladders: dict[str, dict[float, float]] = {"ode": {}, "rk45": {}}
+    for r in RK45_LADDER:
+        solver = bb.SolverConfig(rtol=r, atol=r)
+        ladders["ode"][r] = compliant_errors(groups, refs, lambda kw, s=solver: bb.simulate(
+            BALL, method="ode", solver=s, **kw))
+        ladders["rk45"][r] = compliant_errors(groups, refs, lambda kw, t=r: reference_bounce(
+            BALL, method="RK45", rtol=t, atol=t, **kw))
+        print(f"compliant, rtol=atol={r:g}: package ODE error {ladders['ode'][r]:.2e}, "
+              f"RK45 error {ladders['rk45'][r]:.2e}")
+    pick = {k: max([r for r in RK45_LADDER if v[r] <= TARGET] or [1e-12])
+            for k, v in ladders.items()}
+    return {"ladders": ladders, "rtol": pick, "n": len(refs)}
+
+
+def compliant(quick: bool) -> dict:
+    """Part 5: the compliant contact against SciPy at the same accuracy, in one run."""
+    n_acc, n_pkg, n_scipy, repeats = (12, 8_000, 120, 3) if quick else (32, 40_000, 600, 5)
+    t_start = time.perf_counter()
+    bb.simulate(BALL, method="ode", **compliant_draws(4, seed=0)[0])  # numba warm-up
+    acc = compliant_accuracy(n_acc)
+    pkg, ref = compliant_draws(n_pkg, seed=12), compliant_draws(n_scipy, seed=13)
+    rates = {"ode_per_s": compliant_rate(pkg, acc["rtol"]["ode"], repeats, time.perf_counter),
+             "ode_per_cpu_s": compliant_rate(pkg, acc["rtol"]["ode"], repeats,
+                                             time.process_time),
+             "scipy_per_s": compliant_scipy_rate(ref, acc["rtol"]["rk45"], time.perf_counter),
+             "scipy_per_cpu_s": compliant_scipy_rate(ref, acc["rtol"]["rk45"],
+                                                     time.process_time)}
+    out = rates | {
+        "ratio": rates["ode_per_s"] / rates["scipy_per_s"],
+        "ratio_cpu": rates["ode_per_cpu_s"] / rates["scipy_per_cpu_s"],
+        "tangential": "mindlin", "normal_laws": list(COMPLIANT_LAWS),
+        "ode_rtol": acc["rtol"]["ode"], "scipy_method": "RK45", "scipy_rtol": acc["rtol"]["rk45"],
+        "ode_err": acc["ladders"]["ode"][acc["rtol"]["ode"]],
+        "scipy_err": acc["ladders"]["rk45"][acc["rtol"]["rk45"]], "accuracy_target": TARGET,
+        "ode_ladder_err": {f"{r:g}": v for r, v in acc["ladders"]["ode"].items()},
+        "rk45_ladder_err": {f"{r:g}": v for r, v in acc["ladders"]["rk45"].items()},
+        "n_accuracy": acc["n"], "n_ode": n_pkg, "n_scipy": n_scipy,
+        "numba_threads": numba.get_num_threads(), "quick": quick,
+        "cpu_count": os.cpu_count(), "load_average_1min": os.getloadavg()[0],
+        "wall_s": time.perf_counter() - t_start}
+    print(f"compliant contact (Mindlin spring, four normal laws): bb.simulate "
+          f"{out['ode_per_s']:,.0f} bounces/s ({out['ode_per_cpu_s']:,.0f} per CPU-s, rtol "
+          f"{out['ode_rtol']:g}, error {out['ode_err']:.1e}); SciPy RK45 loop "
+          f"{out['scipy_per_s']:,.1f} bounces/s ({out['scipy_per_cpu_s']:,.1f} per CPU-s, rtol "
+          f"{out['scipy_rtol']:g}, error {out['scipy_err']:.1e}); ratio {out['ratio']:,.0f} "
+          f"(wall), {out['ratio_cpu']:,.0f} (CPU time)")
+    return out
+
+
 def main(argv=None) -> dict:
     """Run the benchmark; print the results and write them to benchmarks/results/."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="small batches (a few minutes)")
+    ap.add_argument("--compliant", action="store_true",
+                    help="only part 5, the compliant contact (forward_compliant.json)")
     args = ap.parse_args(argv)
+    results = Path(__file__).resolve().parent / "results"
+    if args.compliant:
+        summary = compliant(args.quick)
+        write_json(results / "forward_compliant.json", summary)
+        print(json.dumps(summary))
+        return summary
     n_acc, n_scipy, n_ode, n_fast, repeats = (12, 400, 50_000, 1_000_000, 3) if args.quick \
         else (32, 2_000, 200_000, 4_000_000, 5)
     sizes = (n_scipy, n_ode, n_fast)
@@ -286,7 +421,6 @@ def main(argv=None) -> dict:
     sp = speeds(acc, sizes, repeats, args.quick)
     report(acc, sp, sizes)
     summary = summarize(acc, sp, sizes, args.quick) | {"wall_s": time.perf_counter() - t_start}
-    results = Path(__file__).resolve().parent / "results"
     write_json(results / "forward.json", summary)  # "quick" in it says which run
     print(json.dumps(summary))
     return summary

@@ -93,7 +93,7 @@ def test_derived_quantities_carry_definitions_and_transfer_notes():
     draws = {"mu": np.array([0.1, 0.2]), "eta": np.array([1.0, 1.5]),
              "tangential_stiffness_ratio": np.array([0.5, 0.7])}
     q = derived_quantities(BALL, draws, tangential="mindlin", reference_speed=3.0,
-                           speeds=[1.0, 3.0], angles=[10.0, 45.0])
+                           speeds=[1.0, 3.0], angles=[10.0, 45.0], measured_speeds=(3.5, 2.5))
     assert set(q) == {"normal_restitution", "contact_time", "tangential_restitution",
                       "rebound_spin", "rebound_angle", "restitution_at_reference",
                       "contact_time_at_reference", "linear_normal_stiffness",
@@ -101,6 +101,7 @@ def test_derived_quantities_carry_definitions_and_transfer_notes():
                       "tangential_stiffness_ratio"}
     for x in q.values():
         assert x.definition and "this ball" in x.transfer and x.values.shape[0] == 2
+        assert "2.5-3.5 m/s" in x.transfer or x.name == "friction_coefficient"
         assert (x.grid is None) == (x.values.ndim == 1)
     assert q["normal_restitution"].grid_unit == "m/s" and q["rebound_spin"].grid_unit == "deg"
     np.testing.assert_array_equal(q["friction_coefficient"].values, [0.1, 0.2])

@@ -146,6 +146,20 @@ PRIOR_KEYS: dict[str, dict[str, Key]] = {
 }
 
 
+_PARAMETERS_TEXT = (
+    ". The unit of `eta` is kg/s under `kelvin-voigt` and s/m under `hunt-crossley`. Each "
+    "contact law has its own parameters (`bouncebayes.model.model_parameters`): `eta` for "
+    "`kelvin-voigt` and `hunt-crossley`, `restitution` for `linear-dashpot` and `hertz-tsuji`, "
+    "`normal_stiffness` for `linear-dashpot` (which has no `youngs_modulus`), "
+    "`tangential_stiffness_ratio` when `tangential` is not `none`; a prior for a parameter the "
+    "law does not have is refused. A parameter not listed is fixed: `mu`, `eta`, "
+    "`restitution`, `normal_stiffness` at their [contact] values, `tangential_stiffness_ratio` "
+    "at its [contact] value or Mindlin's 2(1-nu)/(2-nu), `youngs_modulus` at "
+    "`ball.youngs_modulus_Pa`, `spin` at `incidence.spin_rad_s`. A prior must stay inside the "
+    "physical domain (`mu`, `eta` >= 0; `youngs_modulus`, `normal_stiffness`, "
+    "`tangential_stiffness_ratio` > 0; `restitution` in (0, 1]).")
+
+
 def reference_markdown() -> str:
     """docs/experiment-file.md, generated from the tables above (a test keeps them equal)."""
     from .._validate import range_text
@@ -171,35 +185,16 @@ def reference_markdown() -> str:
                        else f"`{k.default!r}`")
             lines.append(f"| `{name}` | {k.doc} | {k.unit or '-'} | {allowed} | {default} |")
         lines.append("")
-    return "\n".join(lines + _parameters_markdown()) + "\n"
-
-
-def _parameters_markdown() -> list[str]:
-    """The [parameters.NAME] part of docs/experiment-file.md."""
-    lines = ["In [ball], give exactly one of `diameter_m`/`radius_m` and exactly one of "
-             "`mass_kg`/`density_kg_m3`.", "",
-             "## [parameters.NAME]", "",
-             "One table per inferred parameter; NAME is one of "
-             + ", ".join(f"`{n}` ({u or 'dimensionless'})" for n, (u, _) in
-                         PARAMETERS.items())
-             + ". The unit of `eta` is kg/s under `kelvin-voigt` and s/m under "
-               "`hunt-crossley`. Each contact law has its own parameters "
-               "(`bouncebayes.model.model_parameters`): `eta` for `kelvin-voigt` and "
-               "`hunt-crossley`, `restitution` for `linear-dashpot` and `hertz-tsuji`, "
-               "`normal_stiffness` for `linear-dashpot` (which has no `youngs_modulus`), "
-               "`tangential_stiffness_ratio` when `tangential` is not `none`; a prior for a "
-               "parameter the law does not have is refused. A parameter not listed is fixed: "
-               "`mu`, `eta`, `restitution`, `normal_stiffness` at their [contact] values, "
-               "`tangential_stiffness_ratio` at its [contact] value or Mindlin's "
-               "2(1-nu)/(2-nu), `youngs_modulus` at `ball.youngs_modulus_Pa`, `spin` at "
-               "`incidence.spin_rad_s`. A prior must stay inside the physical domain "
-               "(`mu`, `eta` >= 0; `youngs_modulus`, `normal_stiffness`, "
-               "`tangential_stiffness_ratio` > 0; `restitution` in (0, 1]).", "",
-             "| prior | keys |", "|---|---|"]
+    lines += ["In [ball], give exactly one of `diameter_m`/`radius_m` and exactly one of "
+              "`mass_kg`/`density_kg_m3`.", "", "## [parameters.NAME]", "",
+              "One table per inferred parameter; NAME is one of "
+              + ", ".join(f"`{n}` ({u or 'dimensionless'})" for n, (u, _) in
+                          PARAMETERS.items()) + _PARAMETERS_TEXT, "",
+              "| prior | keys |", "|---|---|"]
     for kind, keys in PRIOR_KEYS.items():
         described = ", ".join(f"`{n}` ({k.doc}"
                               + (", default " + repr(k.default) if k.default is not None
                                  else "") + ")" for n, k in keys.items())
         lines.append(f"| `prior = \"{kind}\"`{' (default)' if kind == 'uniform' else ''} | "
                      f"{described} |")
-    return lines
+    return "\n".join(lines) + "\n"

@@ -22,6 +22,7 @@ from ._config import mindlin_stiffness_ratio as mindlin_stiffness_ratio
 from ._config import model_parameters as model_parameters
 from ._derived import DEFAULT_ANGLES as DEFAULT_ANGLES
 from ._derived import DEFAULT_SPEEDS as DEFAULT_SPEEDS
+from ._derived import DERIVED_QUANTITIES as DERIVED_QUANTITIES
 from ._derived import DerivedQuantity as DerivedQuantity
 from ._derived import ObliqueResponse as ObliqueResponse
 from ._derived import derived_quantities as derived_quantities
@@ -46,7 +47,7 @@ from ._results import Status as Status
 from ._simulate import simulate as simulate
 
 __all__ = [
-    "DEFAULT_ANGLES", "DEFAULT_SPEEDS", "HERTZ_OVERLAP_LIMIT", "NORMAL_LAWS", "PAPER_BALL", "PARAMETER_DOMAINS", "STANDARD_GRAVITY",
+    "DEFAULT_ANGLES", "DEFAULT_SPEEDS", "DERIVED_QUANTITIES", "HERTZ_OVERLAP_LIMIT", "NORMAL_LAWS", "PAPER_BALL", "PARAMETER_DOMAINS", "STANDARD_GRAVITY",
     "TANGENTIAL_LAWS", "VARYING", "Ball", "BounceFailed", "BounceHistory", "BounceModel",
     "Bounces", "DerivedQuantity", "Domain", "HertzImpact", "ObliqueResponse", "Rebounds", "RigidBodyRebound", "SimulationWarning",
     "SolverConfig", "Status", "damping_ratio_restitution", "damping_unit", "derived_quantities",

@@ -16,6 +16,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -34,8 +35,8 @@ DEFAULT_ANGLES = np.arange(5.0, 90.0, 5.0)
 
 _TRANSFER = ("holds for this ball on this surface (this pair of materials, this ball's size and "
              "mass: a DEM particle of another size or another contact partner needs the law, "
-             "not the number), at impact speeds {speeds}; outside that range it is the "
-             "contact law's extrapolation, not a measurement")
+             "not the number); the data measured it at impact speeds {measured}, and "
+             "elsewhere it is the contact law's extrapolation, not a measurement")
 
 
 @dataclass(frozen=True)
@@ -180,92 +181,84 @@ def equivalent_linear_dashpot(mass, restitution, contact_time
 def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *,
                        reference_speed: float, normal_law: str = "kelvin-voigt",
                        tangential: str = "none", speeds=DEFAULT_SPEEDS, angles=DEFAULT_ANGLES,
+                       measured_speeds: tuple[float, float] | None = None,
                        solver: SolverConfig | None = None) -> dict[str, DerivedQuantity]:
     """Every DEM-ready quantity of the draws ``values``, by name (docs/model.md §4.7).
 
-    ``reference_speed`` (m/s): the impact speed of the oblique curves and of the linear
-    spring-dashpot equivalence (the campaign's incident speed is the natural choice: the data
-    hold there). ``speeds``: the curve of normal restitution and contact time (m/s);
-    ``angles``: the oblique curves (deg).
-
-    Names: ``normal_restitution`` and ``contact_time`` (curves over ``speeds``),
-    ``tangential_restitution``, ``rebound_spin``, ``rebound_angle`` (curves over ``angles``),
-    ``restitution_at_reference``, ``contact_time_at_reference``,
-    ``linear_normal_stiffness``, ``linear_normal_damping``, ``linear_damping_ratio``,
-    ``friction_coefficient``, and with a tangential spring ``tangential_stiffness_ratio``.
+    ``reference_speed`` (m/s): the speed of the oblique curves and of the linear equivalence
+    (the campaign's incident speed: the data hold there); ``speeds`` (m/s) and ``angles``
+    (deg): the curves' grids; ``measured_speeds``: (lowest, highest) impact speed of the data,
+    m/s, for the transfer notes (default: the reference speed). The names are the keys of
+    ``DERIVED_QUANTITIES``, plus ``tangential_stiffness_ratio`` with a spring.
     """
     v_ref = check_scalar("reference_speed", reference_speed, unit="m/s", low=0.0,
                          low_open=True)
     values = dict(values or {})
+    law: dict[str, Any] = {"normal_law": normal_law, "tangential": tangential,
+                           "solver": solver}
     speeds = np.atleast_1d(np.asarray(speeds, dtype=float))
-    e, tc = normal_response(ball, values, speeds=speeds, normal_law=normal_law,
-                            tangential=tangential, solver=solver)
+    e, tc = normal_response(ball, values, speeds=speeds, **law)
     e_ref, tc_ref = (a[:, 0] for a in normal_response(
-        ball, values, speeds=[v_ref], normal_law=normal_law, tangential=tangential,
-        solver=solver))
-    obl = oblique_response(ball, values, speed=v_ref, angles=angles, normal_law=normal_law,
-                           tangential=tangential, solver=solver)
+        ball, values, speeds=[v_ref], **law))
+    obl = oblique_response(ball, values, speed=v_ref, angles=angles, **law)
     k, c, zeta = equivalent_linear_dashpot(ball.mass, e_ref, tc_ref)
-    lo, hi = float(speeds.min()), float(speeds.max())
-    where = _TRANSFER.format(speeds=f"{lo:g}-{hi:g} m/s")
-    at_ref = _TRANSFER.format(speeds=f"near {v_ref:g} m/s")
-    n = e.shape[0]
-    mu = np.broadcast_to(np.asarray(values.get("mu", np.nan), dtype=float), (n,)).copy()
-    q = [*_curve_rows(v_ref, where, at_ref, e, tc, speeds, obl),
-         *_scalar_rows(v_ref, at_ref, e_ref, tc_ref, (k, c, zeta), mu)]
+    lo, hi = (v_ref, v_ref) if measured_speeds is None else sorted(map(float, measured_speeds))
+    transfer = _TRANSFER.format(measured=f"{lo:.3g} m/s" if lo == hi
+                                else f"{lo:.3g}-{hi:.3g} m/s")
+    by_speed, by_angle = (speeds, "impact_speed", "m/s"), (obl.angles, "incidence_angle", "deg")
+    found = {"normal_restitution": (e, by_speed), "contact_time": (tc, by_speed),
+             "tangential_restitution": (obl.tangential_restitution, by_angle),
+             "rebound_spin": (obl.rebound_spin, by_angle),
+             "rebound_angle": (obl.rebound_angle, by_angle),
+             "restitution_at_reference": (e_ref, None),
+             "contact_time_at_reference": (tc_ref, None), "linear_normal_stiffness": (k, None),
+             "linear_normal_damping": (c, None), "linear_damping_ratio": (zeta, None),
+             "friction_coefficient": (np.broadcast_to(np.asarray(
+                 values.get("mu", np.nan), dtype=float), e.shape[:1]).copy(), None)}
+    definitions = dict(DERIVED_QUANTITIES)
     if tangential != "none":
-        ratio = _draws(ball, values, normal_law, tangential)[1][:, -1]
-        q.append(("tangential_stiffness_ratio", "", _RATIO_DEFINITIONS[tangential], where,
-                  ratio, None, None, None))
-    return {name: DerivedQuantity(name, unit, definition, transfer, np.asarray(v), grid,
-                                  grid_name, grid_unit)
-            for name, unit, definition, transfer, v, grid, grid_name, grid_unit in q}
+        found["tangential_stiffness_ratio"] = (
+            _draws(ball, values, normal_law, tangential)[1][:, -1], None)
+        definitions["tangential_stiffness_ratio"] = ("", _RATIO_DEFINITIONS[tangential])
+    out = {}
+    for name, (v, grid) in found.items():
+        unit, definition = definitions[name]
+        note = _FRICTION_TRANSFER if name == "friction_coefficient" else transfer
+        out[name] = DerivedQuantity(name, unit, definition.format(v=v_ref), note,
+                                    np.asarray(v), *(grid or (None, None, None)))
+    return out
 
 
-def _curve_rows(v_ref, where, at_ref, e, tc, speeds, obl) -> list[tuple]:
-    """The curves of derived_quantities: (name, unit, definition, transfer, draws, grid,
-    grid name, grid unit)."""
-    return [
-        ("normal_restitution", "", "v'_n / v_n of a head-on impact at each impact speed "
-         "(no spin, no gravity)", where, e, speeds, "impact_speed", "m/s"),
-        ("contact_time", "s", "time from first touch to the normal force's return to zero, "
-         "head-on, at each impact speed", where, tc, speeds, "impact_speed", "m/s"),
-        ("tangential_restitution", "", f"u' / u of the centre of mass at {v_ref:g} m/s and "
-         "each incidence angle (from the normal), no incident spin", at_ref,
-         obl.tangential_restitution, obl.angles, "incidence_angle", "deg"),
-        ("rebound_spin", "rad/s", f"spin after impact at {v_ref:g} m/s and each incidence "
-         "angle, no incident spin (counter-clockwise positive, ball moving along +x: "
-         "topspin is negative)", at_ref, obl.rebound_spin, obl.angles, "incidence_angle",
-         "deg"),
-        ("rebound_angle", "deg", f"atan(u' / v'_n) of the centre of mass at {v_ref:g} m/s and "
-         "each incidence angle", at_ref, obl.rebound_angle, obl.angles, "incidence_angle",
-         "deg"),
-    ]
-
-
-def _scalar_rows(v_ref, at_ref, e_ref, tc_ref, dashpot, mu) -> list[tuple]:
-    """The single-valued quantities of derived_quantities, rows as in _curve_rows."""
-    k, c, zeta = dashpot
-    return [
-        ("restitution_at_reference", "", f"normal restitution of a head-on impact at "
-         f"{v_ref:g} m/s", at_ref, e_ref, None, None, None),
-        ("contact_time_at_reference", "s", f"contact time of a head-on impact at {v_ref:g} m/s",
-         at_ref, tc_ref, None, None, None),
-        ("linear_normal_stiffness", "N/m", "k_n of the linear spring-dashpot F = k_n d + c_n d' "
-         f"(unclamped, as DEM codes set it) with the same restitution and contact time as the "
-         f"model in a head-on impact at {v_ref:g} m/s: k_n = m (pi^2 + ln^2 e) / t_c^2 with "
-         "the ball's mass m (a ball on a wall; between two such balls use the reduced mass "
-         "m/2)", at_ref, k, None, None, None),
-        ("linear_normal_damping", "kg/s", "c_n of that linear spring-dashpot, "
-         "c_n = -2 m ln(e) / t_c", at_ref, c, None, None, None),
-        ("linear_damping_ratio", "", "damping ratio zeta = c_n / (2 sqrt(m k_n)) = -ln e / "
-         "sqrt(pi^2 + ln^2 e) of that linear spring-dashpot (LIGGGHTS/EDEM's -beta)", at_ref,
-         zeta, None, None, None),
-        ("friction_coefficient", "", "Coulomb's sliding friction coefficient mu (tangential "
-         "force <= mu x normal force at the contact)", _FRICTION_TRANSFER, mu, None, None, None),
-    ]
-
-
+#: (unit, definition) of each quantity of ``derived_quantities`` (``{v}``: the reference speed,
+#: m/s); ``tangential_stiffness_ratio`` is added with a spring.
+DERIVED_QUANTITIES = {
+    "normal_restitution": ("", "v'_n / v_n of a head-on impact at each impact speed (no spin, "
+                               "no gravity)"),
+    "contact_time": ("s", "time from first touch to the normal force's return to zero, "
+                          "head-on, at each impact speed"),
+    "tangential_restitution": ("", "u' / u of the centre of mass at {v:g} m/s and each "
+                                   "incidence angle (from the normal), no incident spin"),
+    "rebound_spin": ("rad/s", "spin after impact at {v:g} m/s and each incidence angle, no "
+                              "incident spin (counter-clockwise positive, ball moving along "
+                              "+x: topspin is negative)"),
+    "rebound_angle": ("deg", "atan(u' / v'_n) of the centre of mass at {v:g} m/s and each "
+                             "incidence angle"),
+    "restitution_at_reference": ("", "normal restitution of a head-on impact at {v:g} m/s"),
+    "contact_time_at_reference": ("s", "contact time of a head-on impact at {v:g} m/s"),
+    "linear_normal_stiffness": ("N/m", "k_n of the linear spring-dashpot F = k_n d + c_n d' "
+                                       "(unclamped, as DEM codes set it) with the same "
+                                       "restitution and contact time as the model in a "
+                                       "head-on impact at {v:g} m/s: k_n = m (pi^2 + ln^2 e) / "
+                                       "t_c^2 with the ball's mass m (a ball on a wall; "
+                                       "between two such balls use the reduced mass m/2)"),
+    "linear_normal_damping": ("kg/s", "c_n of that linear spring-dashpot, c_n = -2 m ln(e) / "
+                                      "t_c"),
+    "linear_damping_ratio": ("", "damping ratio zeta = c_n / (2 sqrt(m k_n)) = -ln e / "
+                                 "sqrt(pi^2 + ln^2 e) of that linear spring-dashpot "
+                                 "(LIGGGHTS/EDEM's -beta)"),
+    "friction_coefficient": ("", "Coulomb's sliding friction coefficient mu (tangential force "
+                                 "<= mu x normal force at the contact)"),
+}
 _FRICTION_TRANSFER = ("holds for this ball on this surface (this pair of materials, their "
                       "finish and cleanliness), in sliding at the campaign's speeds; it does not "
                       "transfer to another pair of materials")
