@@ -21,8 +21,8 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/bouncebayes demo --out demo-output
 
-## Install and run the test suite (slow statistical studies excluded)
-test: $(STAMP)
+## Install, run the static checks (ruff, mypy) and the test suite (slow studies excluded)
+test: lint
 	$(BIN)/python -m pytest
 
 ## The slow statistical studies (simulation-based calibration etc.)

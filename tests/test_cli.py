@@ -41,7 +41,7 @@ def test_simulate_ball_options_reach_the_model(capsys):
 def test_simulate_bad_input_is_one_clear_line(capsys):
     assert main(["simulate", "--angle", "95"]) == 2
     err = capsys.readouterr().err
-    assert err.strip() == ("bouncebayes simulate: error: `angle` must be a finite number in "
+    assert err.strip() == ("bouncebayes simulate: error: `--angle` must be a finite number in "
                            "[0, 90) deg; got 95.0")
 
 

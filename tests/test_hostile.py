@@ -146,6 +146,8 @@ class World:
             key, kind = m[1], m[2]
             if kind is None:
                 return self.values[key]
+            if key == "manifest":
+                return self._write(f"in/manifest-{kind}.toml", BAD_MANIFESTS[kind][0])
             table, suffix = {"exp": ({**BAD_EXPERIMENTS, **OTHERS_EXPERIMENTS}, ".toml"),
                              "table": ({**BAD_TABLES, **OTHERS_TABLES}, ".csv"),
                              "trajdir": ({**BAD_TRAJECTORY_FOLDERS, **OTHERS_TRAJECTORIES},
@@ -194,6 +196,7 @@ def _cases():
     yield from _track_cases()
     yield from _global_cases()
     yield from _others_cases()
+    yield from _study_cases()
 
 
 NOT_A_NUMBER = ("abc", "nan", "inf", "-inf", "1,5", "")
@@ -357,6 +360,61 @@ def _others_cases():
         yield (f"kinematics-trajectories-{kind}",
                ["kinematics", "{trajdir:%s}" % kind, "--experiment", "{exp}", "--out",
                 "{out}/t.csv"], f"trajdir-{kind}", ())
+
+
+# the study commands: every case fails before a cluster starts (--scheduler serial where the
+# check needs the experiment), so none costs more than reading the inputs
+DESIGN_OPTIONS = {"--angles": ("abc", "95", "0", "10:5:1"), "--speeds": ("-1", "0", "x"),
+                  "--bounces": ("0", "1.5"), "--frame-rates": ("0", "-100"),
+                  "--position-noise": ("-1", "0"), "--campaigns": ("0", "1", "x"),
+                  "--target": ("mu=abc", "nope=0.1", "mu"), "--seed": ("-1", "x"),
+                  "--scheduler": ("foo",), "--workers": ("0", "x")}
+SBC_OPTIONS = {"--campaigns": ("0", "x"), "--draws": ("10", "-1"), "--n-trials": ("0",),
+               "--grid-points": ("3", "x"), "--seed": ("-1",), "--scheduler": ("udp://x",),
+               "--workers": ("0",)}
+_RUN = '[[run]]\nexperiment = "exp.toml"\ndata = "trials.csv"\nout = "o"\n'
+BAD_MANIFESTS = {  # name -> (manifest text, the key the error names)
+    "empty": ("", "`run`"), "not_toml": ("[[run", "not valid TOML"),
+    "unknown_top_key": ("colour = 1\n" + _RUN, "`colour`"),
+    "negative_seed": ("seed = -1\n" + _RUN, "`seed`"),
+    "run_not_tables": ("run = 3\n", "`run`"),
+    "missing_out": (_RUN.replace('out = "o"\n', ""), "run[0].out"),
+    "missing_experiment_file": (_RUN.replace("exp.toml", "nope.toml"), "run[0].experiment"),
+    "missing_data": (_RUN.replace("trials.csv", "nope.csv"), "run[0].data"),
+    "unknown_run_key": (_RUN + "colour = 1\n", "run[0].colour"),
+    "bad_likelihood": (_RUN + 'likelihood = "poisson"\n', "run[0].likelihood"),
+    "bad_sampler": (_RUN + 'sampler = "hmc"\n', "run[0].sampler"),
+    "text_seed": (_RUN + 'seed = "x"\n', "run[0].seed"),
+    "negative_run_seed": (_RUN + "seed = -3\n", "run[0].seed"),
+    "few_draws": (_RUN + "draws = 5\n", "run[0].draws"),
+    "out_is_a_file": (_RUN.replace('out = "o"', 'out = "exp.toml"'), "run[0].out"),
+    "out_not_a_run_folder": (_RUN.replace('out = "o"', 'out = "."'), "run[0].out"),
+    "same_out_twice": (_RUN + _RUN, "run.out"),
+}
+
+
+def _study_cases():
+    design = ["design", "{exp}", "--out", "{out}", "--scheduler", "serial"]
+    for option, values in DESIGN_OPTIONS.items():
+        for value in values:
+            base = design[:4] if option == "--scheduler" else design
+            yield f"design{option}={value}", [*base, option, value], option, ()
+    for kind in ("missing", "not_toml", "unknown_key", "negative_mass", "folder"):
+        yield (f"design-experiment-{kind}", ["design", "{exp:%s}" % kind, "--out", "{out}"],
+               f"exp-{kind}.toml", ())
+    for where, path in {"a_file": "{file}", "under_a_file": "{under}",
+                        "read_only": "{ro}/out"}.items():
+        yield f"design-out-{where}", ["design", "{exp}", "--out", path], "--out", ()
+        yield f"sbc-out-{where}", ["sbc", "--out", path], "--out", ()
+    for option, values in SBC_OPTIONS.items():
+        for value in values:
+            yield f"sbc{option}={value}", ["sbc", "--out", "{out}", option, value], option, ()
+    for kind, (_, culprit) in BAD_MANIFESTS.items():
+        yield (f"batch-manifest-{kind}", ["batch", "{manifest:%s}" % kind, "--scheduler",
+                                          "serial"], culprit, ())
+    yield "batch-missing-manifest", ["batch", "{root}/in/none.toml"], "none.toml", ()
+    yield "batch-manifest-a-folder", ["batch", "{dir}"], "emptydir", ()
+    yield "batch--workers=0", ["batch", "{manifest:empty}", "--workers", "0"], "--workers", ()
 
 
 # inputs of the cases other branches own (not in the tables every command is tried with)

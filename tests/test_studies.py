@@ -137,7 +137,7 @@ def test_manifest_is_checked(tmp_path):
         read_manifest(tmp_path / "m.toml")
     (tmp_path / "m.toml").write_text('[[run]]\nexperiment = "e.toml"\ndata = "e.toml"\n'
                                      'out = "o"\nsampler = 3\n')
-    with pytest.raises(ValueError, match=r"run\[0\]\.sampler.*must be a str; got 3"):
+    with pytest.raises(ValueError, match=r"run\[0\]\.sampler.*must be a string; got 3"):
         read_manifest(tmp_path / "m.toml")
 
 

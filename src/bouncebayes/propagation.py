@@ -13,6 +13,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy import integrate, stats
@@ -140,7 +141,7 @@ def _predictive(result: InferenceResult, theta: dict, rng) -> tuple[np.ndarray, 
 
 def _histories(e: Experiment, theta: dict, n: int) -> tuple[dict, int]:
     keys = ("time", "x", "y", "normal_force", "friction_force", "in_contact")
-    out = {k: [] for k in keys}
+    out: dict[str, list] = {k: [] for k in keys}
     failed = 0
     inc = e.incidence
     for i in range(min(n, theta["mu"].size)):
@@ -170,7 +171,7 @@ def hellinger(a: np.ndarray, b: np.ndarray) -> float:
 
 def compare(trials: Trials, speed: np.ndarray, angle: np.ndarray) -> dict:
     """Posterior predictive vs observed rebounds, per variable, with a verdict in words."""
-    out = {}
+    out: dict[str, Any] = {}
     words = []
     for name, pred, obs, unit in (("rebound_speed", speed, trials.rebound_speed, "m/s"),
                                   ("rebound_angle", angle, trials.rebound_angle, "deg")):

@@ -186,7 +186,7 @@ _FLAG_NAME = re.compile(r"`(" + "|".join(sorted(SAMPLER_FLAGS, key=len, reverse=
 
 def flag_names(text: str, flags: frozenset[str] = frozenset()) -> str:
     """Library messages name arguments (`` `burn_in` ``); the command line names flags: the
-    sampler settings, and any ``a_b`` whose flag ``--a-b`` is among ``flags``."""
+    sampler settings, and any ``a_b`` (or ``a``) whose flag ``--a-b`` is among ``flags``."""
     text = _FLAG_NAME.sub(lambda m: f"`{SAMPLER_FLAGS[m[1]]}`", text)
 
     def flag(m: re.Match) -> str:
@@ -196,7 +196,7 @@ def flag_names(text: str, flags: frozenset[str] = frozenset()) -> str:
     return _SNAKE_NAME.sub(flag, text)
 
 
-_SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)+)`")
+_SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)*)`")
 
 
 def add_sampler_arguments(p: argparse.ArgumentParser) -> None:

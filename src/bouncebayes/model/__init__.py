@@ -35,6 +35,7 @@ from ._domain import Domain as Domain
 from ._domain import parameter_domain as parameter_domain
 from ._engine import VARYING as VARYING
 from ._engine import BounceModel as BounceModel
+from ._fast import rebound_range as rebound_rows
 from ._history import BounceFailed as BounceFailed
 from ._history import BounceHistory as BounceHistory
 from ._history import simulate_history as simulate_history
@@ -53,6 +54,6 @@ __all__ = [
     "SolverConfig", "Status", "damping_ratio_restitution", "damping_unit", "derived_quantities",
     "equivalent_linear_dashpot",
     "hertz_elastic_impact", "mindlin_stiffness_ratio", "model_parameters", "normal_response",
-    "oblique_response", "parameter_domain",
+    "oblique_response", "parameter_domain", "rebound_rows",
     "restitution_damping_ratio", "rigid_body_rebound", "simulate", "simulate_history",
 ]

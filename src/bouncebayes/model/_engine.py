@@ -217,6 +217,20 @@ class BounceModel:
         theta[:, col] = slot_damping(self.normal_law, theta[:, col])
         return theta
 
+    def rebound_kernel(self) -> tuple | None:
+        """The arguments of :func:`rebound_rows` after ``theta`` (the prepared conditions and
+        tables), for samplers that evaluate rows from their own compiled loops with ``theta``
+        as :meth:`__call__` takes it; ``None`` where calls do more than that kernel (a law
+        without closed-form tables, a compliant contact, parameter columns transformed before
+        the kernel): such samplers then call the model."""
+        if (not _tabled(self) or getattr(self, "compliant", False)
+                or "restitution" in self.varying):
+            return None
+        cond, cond_rows = self._prepared_conditions()
+        main, _, x_max, gamma_max, kv = self._tables
+        return (self._cols, cond, cond_rows, self.inputs.ball, self.bounds, main, x_max,
+                gamma_max, kv)
+
     def prepare(self) -> BounceModel:
         """Check the conditions (raising in ``errors="raise"`` mode) and prepare their normal
         impacts for calls now rather than at the first call; returns the model."""

@@ -36,7 +36,10 @@ def read_manifest(path: str | Path) -> tuple[int, list[dict[str, Any]]]:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputFileError(path, f"must be a non-negative integer; got {seed!r}", field="seed")
     runs = doc.get("run")
-    if not isinstance(runs, list) or not runs or not all(isinstance(r, dict) for r in runs):
+    if runs is not None and not (isinstance(runs, list)
+                                 and all(isinstance(r, dict) for r in runs)):
+        raise InputFileError(path, f"must be [[run]] tables; got {runs!r}", field="run")
+    if not runs:
         raise InputFileError(path, "no [[run]] tables; each needs experiment, data and out",
                              field="run")
     return seed, [_check_run(path, i, r) for i, r in enumerate(runs)]
@@ -50,8 +53,8 @@ def _check_run(path: Path, i: int, run: dict) -> dict[str, Any]:
             raise InputFileError(path, f"unknown key; a [[run]] has {', '.join(RUN_KEYS)}",
                                  field=f"{where}.{key}")
         if isinstance(value, bool) or not isinstance(value, kind):
-            raise InputFileError(path, f"must be a {kind.__name__}; got {value!r}",
-                                 field=f"{where}.{key}")
+            what = "an integer" if kind is int else "a string"
+            raise InputFileError(path, f"must be {what}; got {value!r}", field=f"{where}.{key}")
     for key in REQUIRED:
         if key not in run:
             raise InputFileError(path, "missing (paths are relative to the manifest)",
@@ -61,7 +64,37 @@ def _check_run(path: Path, i: int, run: dict) -> dict[str, Any]:
         out[key] = str((path.parent / run[key]).resolve())
         if key != "out" and not Path(out[key]).exists():
             raise InputFileError(path, f"{out[key]} does not exist", field=f"{where}.{key}")
+    _check_settings(path, where, out)
     return out
+
+
+def _check_settings(path: Path, where: str, run: dict[str, Any]) -> None:
+    """A run's settings checked as ``run`` would check them, before any task starts: a
+    mistake is the manifest's, named by its key, not a task that fails twice."""
+    from ..inference import LIKELIHOODS, sampler_config
+    from ..pipeline import check_run_folder
+
+    checks = (("likelihood", lambda: _choice(run.get("likelihood"), LIKELIHOODS)),
+              ("sampler", lambda: sampler_config(run.get("sampler", "mh"))),
+              ("seed", lambda: _non_negative(run.get("seed"))),
+              ("draws", lambda: sampler_config(run.get("sampler", "mh"), draws=run.get("draws"))),
+              ("out", lambda: check_run_folder(Path(run["out"]))))
+    for key, check in checks:
+        try:
+            check()
+        except ValueError as exc:
+            raise InputFileError(path, str(exc).replace(f"`{key}` ", "", 1),
+                                 field=f"{where}.{key}") from None
+
+
+def _choice(value: str | None, allowed: tuple[str, ...]) -> None:
+    if value is not None and value not in allowed:
+        raise ValueError(f"must be one of {', '.join(map(repr, allowed))}; got {value!r}")
+
+
+def _non_negative(value: int | None) -> None:
+    if value is not None and value < 0:
+        raise ValueError(f"must be a non-negative integer; got {value!r}")
 
 
 def batch_run(run: dict[str, Any], seed: int) -> dict[str, Any]:

@@ -244,6 +244,9 @@ def worker_environment(workers: int) -> dict[str, str]:
             "NUMBA_NUM_THREADS": str(max(1, cores // max(1, workers)))}
 
 
+SCHEMES = ("tcp", "tls", "inproc", "ucx", "ws", "wss")  #: dask.distributed's address schemes
+
+
 class _client:
     """A dask.distributed client: to ``where`` (an address), or to a local cluster of
     processes started for the study and stopped after it."""
@@ -258,12 +261,14 @@ class _client:
         from distributed import Client, LocalCluster
 
         if self.where != LOCAL:
-            if "://" not in self.where:
+            scheme = self.where.split("://", 1)[0] if "://" in self.where else None
+            if scheme not in SCHEMES:
                 raise ValueError(f"`scheduler` must be 'serial', 'local' or an address such as "
-                                 f"tcp://HOST:PORT; got {self.where!r}")
+                                 f"tcp://HOST:PORT (schemes {', '.join(SCHEMES)}); got "
+                                 f"{self.where!r}")
             try:
                 self.client = Client(self.where, timeout="20s")
-            except OSError as exc:
+            except (OSError, ValueError) as exc:
                 raise ValueError(f"`scheduler` {self.where}: cannot connect ({exc}); start "
                                  f"the scheduler or give another address") from None
             return self.client

@@ -222,9 +222,10 @@ def _edge_fit(frame, s: _Searcher, gain: float, c0, r: float, min_visible: float
             return None
         for width in widths:
             for _ in range(4):
-                c = _disk_step(alpha, x, y, c, r, width)
-                if c is None or math.dist(c, c0) > r:  # diverged: not a disk of radius r
+                stepped = _disk_step(alpha, x, y, c, r, width)
+                if stepped is None or math.dist(stepped, c0) > r:  # diverged: not a disk of r
                     return None
+                c = stepped
     return c
 
 

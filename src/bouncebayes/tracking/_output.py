@@ -162,15 +162,16 @@ class TrackedVideo:
 
 
 def track_video(path: str | os.PathLike, *, fps: float | None = None,
-                config: TrackerConfig = TrackerConfig(), ball_diameter: float | None = None,
+                config: TrackerConfig | None = None, ball_diameter: float | None = None,
                 reference: tuple[Sequence[float], Sequence[float], float] | None = None,
                 surface: Surface | None = None,
                 background: np.ndarray | str | os.PathLike | None = None) -> TrackedVideo:
     """Read, track, calibrate and rotate one video into the plane frame.
 
     Arguments:
-        path, fps: as :func:`read_frames`.
-        config: as :func:`track_ball`.
+        path: a video file or a folder of image frames, as :func:`read_frames`.
+        fps: frames per second, as :func:`read_frames`.
+        config: as :func:`track_ball` (default: ``TrackerConfig()``).
         background: as :func:`track_ball`, or an image file of the empty scene.
         ball_diameter: metres; the scale is this over twice ``Track.ball_radius``. Used when
             ``reference`` is not given (default then: the paper's 25.6 mm ball).
@@ -184,7 +185,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
     source = read_frames(path, fps=fps)
     if isinstance(background, str | os.PathLike):
         background = _background_file(background, source)
-    track = track_ball(source.frames, config=config, background=background)
+    track = track_ball(source.frames, config=config or TrackerConfig(), background=background)
     n_found = int(track.found.sum())
     if n_found < 3:
         raise InputFileError(source.path, _not_found_message(track, n_found))

@@ -198,7 +198,7 @@ def _finish(frames, s: _Searcher, raw: Sequence[_Measure | None], config: Tracke
         r_med = float(np.median(radius[whole]))
         bad = whole & (np.abs(radius / r_med - 1.0) > config.max_radius_change)
         method[bad] = NOT_FOUND
-        for k in np.flatnonzero(method == EDGE_FIT):
+        for k in np.flatnonzero(method == EDGE_FIT).tolist():
             fit = _edge_fit(frames[k], s, s.gains[k], centre[k], r_med, config.min_visible)
             if fit is None:
                 method[k] = NOT_FOUND
