@@ -347,3 +347,18 @@ def test_infer_replaces_its_outputs_together_and_stamps_them(tmp_path, capsys):
         assert record["inputs"]["trials"]["sha256"] == bb.load_trials(
             demo.trials, bb.load_experiment(demo.experiment)).sha256
     assert f"summary: {out / 'summary.json'}" in capsys.readouterr().out
+
+
+def test_predict_writes_the_predictions_of_new_incidences(small_run, tmp_path, capsys):
+    rows = tmp_path / "new.csv"
+    rows.write_text("trial,incidence_speed,incidence_angle\nslow,2.0,40\nfast,4.0,70\n")
+    out = tmp_path / "pred.csv"
+    assert main(["predict", str(small_run.folder), str(rows), "--out", str(out), "--draws",
+                 "200"]) == 0
+    assert f"predictions: {out} (2 rows, 200 draws each" in capsys.readouterr().out
+    lines = out.read_text().splitlines()
+    header = lines[1].split(",")
+    assert lines[0].startswith("# provenance: ") and '"seed":11' in lines[0]
+    for name in ("rebound_speed", "rebound_angle", "rebound_spin", "contact_time"):
+        assert {f"{name}_mean", f"{name}_q05", f"{name}_q50", f"{name}_q95"} <= set(header)
+    assert [line.split(",")[0] for line in lines[2:]] == ["slow", "fast"]

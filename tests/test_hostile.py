@@ -415,6 +415,27 @@ def _study_cases():
     yield "batch-missing-manifest", ["batch", "{root}/in/none.toml"], "none.toml", ()
     yield "batch-manifest-a-folder", ["batch", "{dir}"], "emptydir", ()
     yield "batch--workers=0", ["batch", "{manifest:empty}", "--workers", "0"], "--workers", ()
+    yield from _predict_cases()
+
+
+def _predict_cases():
+    predict = ["predict", "{run}", "{trials}", "--out", "{out}/p.csv"]
+    for value in ("abc", "5", "-1", "1.5"):
+        yield f"predict--draws={value}", [*predict, "--draws", value], "--draws", ()
+    yield "predict--seed=-1", [*predict, "--seed", "-1"], "--seed", ()
+    for where, path in {"a_folder": "{dir}", "under_a_file": "{under}/p.csv",
+                        "read_only": "{ro}/p.csv", "wrong_suffix": "{out}/p.txt"}.items():
+        yield f"predict-out-{where}", [*predict[:4], path], "--out", ()
+    for where, path in {"missing": "{root}/nothing", "a_file": "{file}",
+                        "not_a_run": "{dir}"}.items():
+        yield (f"predict-run-folder-{where}", ["predict", path, "{trials}", "--out",
+                                               "{out}/p.csv"], path.strip("{}").split("/")[-1]
+               if where == "missing" else ("plain.txt" if where == "a_file" else "emptydir"),
+               ())
+    for kind in ("missing", "empty", "unknown_column", "text_cell", "angle_95", "ragged",
+                 "binary", "folder"):
+        yield (f"predict-table-{kind}", ["predict", "{run}", "{table:%s}" % kind, "--out",
+                                         "{out}/p.csv"], f"table-{kind}.csv", ())
 
 
 # inputs of the cases other branches own (not in the tables every command is tried with)
@@ -460,15 +481,20 @@ def test_the_suite_is_large_and_covers_every_command():
 
 @pytest.mark.parametrize("argv, culprit", [pytest.param(argv, culprit, id=name, marks=marks)
                                            for name, argv, culprit, marks in CASES])
-def test_bad_input_is_one_clean_line_and_writes_nothing(tmp_path, argv, culprit):
+def test_bad_input_is_one_clean_line_and_writes_nothing(tmp_path, argv, culprit, request):
     world = World(tmp_path)
     world.values["root"] = str(tmp_path)
+    if any("{run}" in a for a in argv):  # a finished run folder (built once per session)
+        world.values["run"] = str(request.getfixturevalue("small_run").folder)
     argv = [world.resolve(a) for a in argv]
     culprit = world.resolve(culprit)
     before = snapshot(tmp_path)
+    run_before = snapshot(Path(world.values["run"])) if "run" in world.values else None
     code, _, err = run_main(argv)
     assert_one_clean_error(code, err, argv[0] if argv else None, culprit)
     assert snapshot(tmp_path) == before
+    if run_before is not None:
+        assert snapshot(Path(world.values["run"])) == run_before
 
 
 # --------------------------------------------------------------------------- damaged run folders

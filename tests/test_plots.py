@@ -159,34 +159,18 @@ def test_residuals_figure_and_its_input():
         plots.Residuals(r, r[:-1], res.labels, res.incidence_speed, res.incidence_angle)
 
 
-def test_posterior_residuals(run):
-    """At the posterior of a well-specified synthetic campaign (the demo) the standardised
-    residuals scatter like N(0, 1) (rms within 0.6-1.4 for 55 trials); moving every measured
-    rebound speed by 10 standard errors moves those residuals by several units and leaves the
-    angle's unchanged; without standard errors the residuals are scaled by their own spread."""
+def test_posterior_residuals_are_the_adequacy_checks(run):
+    """The residual figure draws the run's adequacy residuals; at the posterior of a
+    well-specified synthetic campaign (the demo) they scatter like N(0, 1) (rms within 0.6-1.4
+    for 55 trials). A result without a check (a run folder from before it) has no figure."""
     result = run.result
     base = plots.posterior_residuals(result)
     assert base.labels == result.trials.labels and base.incidence_measured
+    np.testing.assert_array_equal(base.speed, result.adequacy.residual_speed)
     for r in (base.speed, base.angle):
         assert 0.6 < np.sqrt(np.mean(r**2)) < 1.4
-    t = result.trials
-    se = {c: t.se[c] for c in t.se}
-
-    def trials(**changes):
-        cols = {"rebound_speed": t.rebound_speed, "rebound_angle": t.rebound_angle,
-                "incidence_speed": t.incidence_speed, "incidence_angle": t.incidence_angle,
-                "incidence_spin": t.incidence_spin, "se": se, "labels": t.labels} | changes
-        return bb.data.make_trials(result.experiment, **cols)
-
-    shifted = replace(result, trials=trials(
-        rebound_speed=t.rebound_speed + 10 * t.se["rebound_speed"]))
-    moved = plots.posterior_residuals(shifted)
-    assert np.min(moved.speed - base.speed) > 5
-    np.testing.assert_array_equal(moved.angle, base.angle)
-    bare = plots.posterior_residuals(replace(result, trials=trials(se={})))
-    assert "own robust spread" in bare.scale
-    for r in (bare.speed, bare.angle):  # MAD / 0.6745 of self-scaled residuals is 1
-        assert np.median(np.abs(r - np.median(r))) / 0.6745 == pytest.approx(1.0)
+    assert base.scale == result.adequacy.basis
+    assert plots.posterior_residuals(replace(result, adequacy=None)) is None
 
 
 def test_every_figure_of_a_run_has_labels_units_and_a_legend(run):
@@ -302,6 +286,7 @@ def test_figures_of_a_posterior_whose_bounces_all_fail(run):
     for fig in (plots.plot_trajectories(prop, 0.0128), plots.plot_forces(prop),
                 plots.plot_predictive(prop, plots.measured_density(result)), contact):
         _check_layout(fig, "failed bounces")
-    res = plots.posterior_residuals(broken, n_draws=10)
-    assert np.isnan(res.speed).all() and np.isnan(res.angle).all()
+    nan = np.full(result.trials.n, np.nan)
+    res = plots.Residuals(nan, nan, result.trials.labels, result.trials.incidence_speed,
+                          result.trials.incidence_angle)
     _check_layout(plots.plot_residuals(res), "NaN residuals")

@@ -150,8 +150,9 @@ def carry_over(old: Path, stage: Path, log: Callable[[str], None]) -> list[str]:
 
 
 def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
-        likelihood: str = "gaussian", sampler: str = "mh", seed: int = 0, config=None,
-        noise: str = "auto", progress: bool = False, log: Callable[[str], None] = print,
+        likelihood: str | None = None, sampler: str = "mh", seed: int = 0, config=None,
+        noise: str | None = None, discrepancy: str | None = None, progress: bool = False,
+        log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
         argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",),
         memory_budget: int | None = None) -> RunOutcome:
@@ -167,6 +168,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         config: the sampler's configuration (:class:`bouncebayes.inference.MHConfig`,
             :class:`~bouncebayes.inference.EnsembleConfig` or :class:`~bouncebayes.inference.GridConfig`).
         noise: as :func:`bouncebayes.inference.infer`.
+        discrepancy: as :func:`bouncebayes.inference.infer`.
         progress: progress bars for the long stages.
         log: receives one line per stage and the stages' messages.
         truth: a synthetic campaign's ``truth.json``, copied in and shown in the report.
@@ -181,11 +183,11 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     record = provenance(inputs={"experiment": experiment_path, "data": data, "truth": truth},
                         seed=seed, argv=argv, config={
                             "likelihood": likelihood, "sampler": sampler, "noise": noise,
-                            "sampler_config": config, "fps": fps,
+                            "discrepancy": discrepancy, "sampler_config": config, "fps": fps,
                             "figure_formats": list(figure_formats),
                             "memory_budget": memory_budget})
     settings = dict(likelihood=likelihood, sampler=sampler, seed=seed, config=config,
-                    noise=noise, progress=progress)
+                    noise=noise, discrepancy=discrepancy, progress=progress)
     if memory_budget is not None:
         settings["memory_budget"] = memory_budget
     times: dict[str, float] = {}
@@ -221,8 +223,8 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
         shutil.copyfile(truth, stage / TRUTH_FILE)
     times["data"] = time.perf_counter() - start
 
-    start = _stage(2, f"inference ({settings['likelihood']} likelihood, {settings['sampler']} "
-                      f"sampler)", log)
+    likelihood = settings["likelihood"] or experiment.inference["likelihood"]
+    start = _stage(2, f"inference ({likelihood} likelihood, {settings['sampler']} sampler)", log)
     result = infer(experiment, trials, **settings)
     write_outputs(result, stage)
     times["inference"] = time.perf_counter() - start

@@ -40,12 +40,15 @@ CAPTIONS = {
     "forces": "Normal and friction force histories of posterior draws (paper Fig. 8).",
     "contact_time": "Probability density of the contact time over the posterior (paper "
                     "Fig. 9); the modes are marked.",
-    "residuals": "Standardised residuals (measured minus modelled rebound, divided by the "
-                 "standard deviation of the measurement model) of every trial, at its own "
-                 "incidence, as the posterior median over draws: in table order and against "
-                 "the incidence angle and speed. A model that fits leaves about 95 % of the "
-                 "trials inside the darker ±2 band and nearly all inside ±3, with no trend "
-                 "against the incidence; trends or many trials outside point to a misfit.",
+    "residuals": "Standardised residuals of the adequacy check (measured minus modelled "
+                 "rebound, divided by its standard deviation: for the measurement model the "
+                 "likelihood's own, stated errors, incidence uncertainty, inferred noise or "
+                 "discrepancy, at the best-fitting posterior draw; for kde and consistent the "
+                 "posterior predictive distribution's) of every trial: in table order and "
+                 "against the incidence angle and speed. A model that fits leaves about 95 % "
+                 "of the trials inside the darker ±2 band and nearly all inside ±3, with no "
+                 "trend against the incidence; trends or many trials outside point to a "
+                 "misfit.",
     "diagnostics": "Sampler diagnostics: the trace of every chain and the histograms of the "
                    "ranks of each chain's draws among all draws (flat when the chains agree).",
 }
@@ -293,8 +296,10 @@ def _table(rows: list[list[str]], header: list[str] | None = None) -> str:
 
 
 def _result_section(result: InferenceResult, truth: dict | None) -> list[str]:
-    params = [[p.name, p.unit or "-", f"{p.mean:.5g}", f"{p.sd:.3g}",
-               f"[{p.ci90[0]:.5g}, {p.ci90[1]:.5g}]", p.paper_form(),
+    params = [[p.name, p.unit or "-", f"{p.mean:.5g}",
+               "-" if p.misfit else f"{p.sd:.3g}",
+               "none (misfit)" if p.misfit else f"[{p.ci90[0]:.5g}, {p.ci90[1]:.5g}]",
+               p.paper_form(),
                "-" if p.r_hat is None else f"{p.r_hat:.3f}",
                "-" if p.ess_bulk is None else f"{p.ess_bulk:.0f}",
                "yes" if p.identifiable else "no"]
@@ -310,8 +315,48 @@ def _result_section(result: InferenceResult, truth: dict | None) -> list[str]:
             f"<p>Friction regime of the posterior's simulated bounces: "
             f"{100 * (1 - r['share_rolling']):.0f} % slide throughout the contact, "
             f"{100 * r['share_rolling']:.0f} % leave rolling (where a bounce leaves rolling its "
-            f"rebound does not depend on mu).</p>",
+            f"rebound does not depend on mu).</p>", *_adequacy_section(result),
             "<h2>Diagnostics and warnings</h2>", f"<ul>{warns}</ul>"]
+
+
+def _adequacy_section(result: InferenceResult) -> list[str]:
+    """Does the model reproduce the data: the verdict, the checks' numbers, the discrepancy."""
+    a = result.adequacy
+    if a is None:
+        return ["<h2>Does the model reproduce the data?</h2>", "<p>Not checked: this run "
+                "folder was written before the adequacy check existed; rerun the inference."
+                "</p>"]
+    d = a.to_dict()
+    rows = [["residuals: chi-square per degree of freedom",
+             f"{d['chi2_per_dof']:.3g} over {a.dof} (p = {a.p_value:.2g})"
+             if d["chi2_per_dof"] is not None else "-"],
+            ["rms standardised residual (about 1 expected)",
+             ", ".join(f"{k.replace('_', ' ')} {v:.3g}" for k, v in a.rms.items())],
+            ["worst trial's predictive p-value, corrected for the trials",
+             f"{a.worst_p_value:.2g}"]]
+    rows += [[f"{k.replace('_', ' ')}: KS p-value, Hellinger distance",
+              f"{v['ks_p_value']:.2g}, {v['hellinger']:.3f}"]
+             for k, v in a.distribution.items() if v.get("ks_p_value") is not None]
+    out = ["<h2>Does the model reproduce the data?</h2>",
+           f"<p><b>{'Yes' if a.adequate else 'No'}.</b> {html.escape(a.verdict)}</p>",
+           _table(rows, ["check (each at level 0.0033; docs/likelihoods.md §10)", "value"])]
+    return out + _discrepancy_note(result)
+
+
+def _discrepancy_note(result: InferenceResult) -> list[str]:
+    """The inferred model discrepancy, and the fit without it where ``auto`` added it."""
+    out = []
+    if result.discrepancy != "none":
+        sizes = [f"{p.name.replace('discrepancy_', 'rebound ')} {p.median:.3g} {p.unit}"
+                 for p in result.parameters if p.name.startswith("discrepancy_")]
+        out.append(f"<p>Inferred model discrepancy ({html.escape(result.discrepancy)}; "
+                   f"posterior medians): {', '.join(sizes)}. The intervals above include it."
+                   f"</p>")
+    if result.first_fit is not None:
+        first = result.first_fit["adequacy"]
+        out.append(f"<p>Without a discrepancy term the fit failed the check: "
+                   f"{html.escape(first['verdict'])}</p>")
+    return out
 
 
 def _experiment_section(result: InferenceResult) -> list[str]:

@@ -201,23 +201,32 @@ _SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)*)`")
 
 def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
     """The flags of every command that samples a posterior (infer, run, demo)."""
-    from ..inference import LIKELIHOODS, SAMPLERS, EnsembleConfig, MHConfig
+    from ..inference import DISCREPANCIES, LIKELIHOODS, SAMPLERS, EnsembleConfig, MHConfig
 
     d, e = MHConfig(), EnsembleConfig()
     g = p.add_argument_group("inference")
-    g.add_argument("--likelihood", choices=LIKELIHOODS, default="gaussian",
+    g.add_argument("--likelihood", choices=LIKELIHOODS, default=None,
                    help="gaussian: every bounce = model + measurement noise (the uncertainty "
                         "of one true value); kde: the paper's (density of the measured "
                         "rebounds at the simulated one); consistent: data-consistent inversion "
-                        "(the parameters' bounce-to-bounce distribution)")
+                        "(the parameters' bounce-to-bounce distribution) (default: the "
+                        "experiment's [inference] likelihood, else gaussian)")
     g.add_argument("--sampler", choices=SAMPLERS, default="mh",
                    help="mh: the paper's Metropolis-Hastings; ensemble: emcee; grid: exact "
                         "quadrature (up to 3 parameters)")
     g.add_argument("--seed", type=integer(0), default=0,
                    help="random seed (recorded in the outputs)")
-    g.add_argument("--noise", choices=("auto", "given", "inferred"), default="auto",
+    g.add_argument("--noise", choices=("auto", "given", "inferred"), default=None,
                    help="gaussian likelihood: the table's standard errors (given), noise levels "
-                        "inferred as extra parameters, or given when every trial has them")
+                        "inferred as extra parameters, or given when every trial has them "
+                        "(auto) (default: the experiment's [inference] noise, else auto)")
+    g.add_argument("--discrepancy", choices=DISCREPANCIES, default=None,
+                   help="gaussian likelihood with given noise: an inferred model error per "
+                        "observable (discrepancy_speed m/s, discrepancy_angle deg) in "
+                        "quadrature to the standard errors, normal or student-t (outliers "
+                        "count less); none; or auto: added when the adequacy check fails "
+                        "without it (default: the experiment's [inference] discrepancy, else "
+                        "auto)")
     g.add_argument("--draws", type=integer(), metavar="N",
                    help=f"posterior draws kept in all (default {d.draws})")
     g.add_argument("--chains", type=integer(), metavar="N",
@@ -242,9 +251,11 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
 
 def inference_options(args: argparse.Namespace) -> dict:
     """The keyword arguments of :func:`bouncebayes.inference.infer` the flags set besides the
-    sampler configuration (the memory budget)."""
+    sampler and its configuration: likelihood, noise, discrepancy (``None``: the experiment's),
+    and the memory budget."""
     budget = getattr(args, "memory_budget", None)
-    return {} if budget is None else {"memory_budget": budget}
+    out = {"likelihood": args.likelihood, "noise": args.noise, "discrepancy": args.discrepancy}
+    return out | ({} if budget is None else {"memory_budget": budget})
 
 
 def sampler_config(args: argparse.Namespace):

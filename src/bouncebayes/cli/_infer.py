@@ -40,11 +40,10 @@ def run(args: argparse.Namespace) -> int:
     experiment = load_experiment(args.experiment)
     trials = load_trials(args.trials, experiment)
     config = sampler_config(args)
-    result = infer(experiment, trials, likelihood=args.likelihood, sampler=args.sampler,
-                   seed=args.seed, config=config, noise=args.noise,
+    result = infer(experiment, trials, sampler=args.sampler, seed=args.seed, config=config,
                    progress=show_progress(args), **inference_options(args))
     stamp = record(args, {"experiment": args.experiment, "trials": args.trials},
-                   seed=args.seed, config=run_settings(args, config))
+                   seed=args.seed, config=run_settings(result, config))
     with staged_output(args.out, "entries", owned=OUTPUTS) as stage:
         paths = write_outputs(result, stage)
         stamp_tree(stage, stamp)
@@ -53,7 +52,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_settings(args: argparse.Namespace, config) -> dict:
-    """The inference settings recorded in the provenance."""
-    return {"likelihood": args.likelihood, "sampler": args.sampler, "noise": args.noise,
+def run_settings(result, config) -> dict:
+    """The inference settings recorded in the provenance (as used: flags, else the
+    experiment's [inference] table)."""
+    return {"likelihood": result.likelihood, "sampler": result.sampler,
+            "noise": result.likelihood_info.get("noise"), "discrepancy": result.discrepancy,
             "sampler_config": config}

@@ -10,6 +10,7 @@ from ._priors import LogUniform as LogUniform
 from ._priors import Normal as Normal
 from ._priors import Prior as Prior
 from ._priors import Uniform as Uniform
+from ._schema import INFERENCE_CHOICES as INFERENCE_CHOICES
 from ._schema import PARAMETERS as PARAMETERS
 from ._schema import SECTIONS as SECTIONS
 from ._trials import LABEL_COLUMNS as LABEL_COLUMNS
@@ -40,6 +41,7 @@ __all__ = [
     "DemoCampaign",
     "Experiment",
     "Incidence",
+    "INFERENCE_CHOICES",
     "LABEL_COLUMNS",
     "load_experiment",
     "load_trials",

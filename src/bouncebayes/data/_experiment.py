@@ -39,7 +39,7 @@ class Experiment:
     ``priors`` maps each inferred parameter (of :attr:`model_parameters`: ``mu``, ``eta`` or
     ``restitution``, ``youngs_modulus`` or ``normal_stiffness``, ``spin``,
     ``tangential_stiffness_ratio``) to its prior; every other parameter is fixed at
-    :meth:`fixed_value`. ``settings`` holds the ``[trajectories]`` and ``[synth]`` tables with
+    :meth:`fixed_value`. ``trajectories``, ``synth`` and ``inference`` hold those tables with
     defaults filled in. :meth:`model_options` and :meth:`bounce_model` give the contact law to
     the forward model.
     """
@@ -58,6 +58,8 @@ class Experiment:
     source: str = "<string>"
     text_sha256: str = field(default="", compare=False)
     tangential: str = "none"  #: tangential compliance: none, mindlin or linear
+    inference: MappingProxyType = field(default_factory=lambda: MappingProxyType(
+        {k: v.default for k, v in SECTIONS["inference"].items()}))  #: [inference], filled
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -163,7 +165,7 @@ def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -
         contact=MappingProxyType({k: v for k, v in t["contact"].items() if v is not None}),
         priors=MappingProxyType(priors), trajectories=MappingProxyType(t["trajectories"]),
         synth=MappingProxyType(t["synth"]), source=source, text_sha256=sha256,
-        tangential=t["model"]["tangential"])
+        tangential=t["model"]["tangential"], inference=MappingProxyType(t["inference"]))
 
 
 class _Parser:

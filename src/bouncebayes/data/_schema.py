@@ -38,6 +38,13 @@ def _nonneg(doc: str, unit: str, default: Any = 0.0) -> Key:
 
 OPTIONAL = object()  # default marker: may be absent, no value
 
+# The choices of the [inference] table, which the inference's arguments share.
+INFERENCE_CHOICES: dict[str, tuple[str, ...]] = {
+    "likelihood": ("kde", "gaussian", "consistent"),
+    "noise": ("auto", "given", "inferred"),
+    "discrepancy": ("auto", "none", "normal", "student-t"),
+}
+
 SECTIONS: dict[str, dict[str, Key]] = {
     "experiment": {
         "name": Key(str, "a short name shown in reports", default="experiment"),
@@ -96,6 +103,20 @@ SECTIONS: dict[str, dict[str, Key]] = {
                                            "§5.2; value where not inferred, and synthetic "
                                            "truth); default Mindlin's 2(1-nu)/(2-nu)", "",
                                            OPTIONAL),
+    },
+    "inference": {
+        "likelihood": Key(str, "how the bounces inform the parameters (docs/likelihoods.md): "
+                               "the paper's kde, the gaussian measurement model, or "
+                               "data-consistent inversion; `--likelihood` overrides it", "",
+                          "gaussian", choices=INFERENCE_CHOICES["likelihood"]),
+        "noise": Key(str, "gaussian: the table's standard errors (given), noise levels "
+                          "inferred, or auto (given when every trial has them); `--noise` "
+                          "overrides it", "", "auto", choices=INFERENCE_CHOICES["noise"]),
+        "discrepancy": Key(str, "gaussian with given noise: an inferred model error per "
+                                "observable in quadrature to the standard errors (normal, or "
+                                "student-t for outliers), none, or auto (added when the "
+                                "adequacy check fails without it); `--discrepancy` overrides "
+                                "it", "", "auto", choices=INFERENCE_CHOICES["discrepancy"]),
     },
     "trajectories": {
         "rotation_deg": Key(float, "rotation from the camera frame to the plane-aligned frame "

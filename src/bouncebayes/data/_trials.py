@@ -163,20 +163,24 @@ def make_trials(experiment: Experiment | None, *, rebound_speed, rebound_angle,
 
 # ------------------------------------------------------------------------------------ reader
 
-def load_trials(path: str | os.PathLike, experiment: Experiment) -> Trials:
+def load_trials(path: str | os.PathLike, experiment: Experiment, *,
+                rebound_required: bool = True) -> Trials:
     """Read a trial table (CSV with a header row; lines starting with ``#`` are comments).
 
     Columns (``docs/trial-table.md``): ``rebound_speed`` (m/s) and ``rebound_angle`` (deg from
-    the normal), required; ``incidence_speed``, ``incidence_angle``, ``incidence_spin`` (rad/s),
-    optional; standard errors as ``<column>_se``; ``scale_rel_sd`` (the calibration's relative
-    uncertainty); labels ``trial``, ``file``, ``note``. A ``# provenance: {...}`` comment is
-    read into ``Trials.provenance``. Every problem names the file, the line and the column.
+    the normal), required (unless ``rebound_required`` is false: bounces to predict, whose
+    rebounds are then NaN where absent); ``incidence_speed``, ``incidence_angle``,
+    ``incidence_spin`` (rad/s), optional; standard errors as ``<column>_se``; ``scale_rel_sd``
+    (the calibration's relative uncertainty); labels ``trial``, ``file``, ``note``. A ``#
+    provenance: {...}`` comment is read into ``Trials.provenance``. Every problem names the
+    file, the line and the column.
     """
     path = Path(path)
     raw, rows, provenance = _read_rows(path)
     header_line, header = rows[0]
     names = [h.strip() for h in header]
-    _check_header(path, header_line, names)
+    required = REQUIRED if rebound_required else ()
+    _check_header(path, header_line, names, required)
     data = rows[1:]
     if not data:
         raise InputFileError(path, "no data rows after the header", line=header_line)
@@ -191,7 +195,9 @@ def load_trials(path: str | os.PathLike, experiment: Experiment) -> Trials:
         for name in values:
             values[name].append(_cell(path, line, name, cells[name]))
     arrays = {k: np.array(v) for k, v in values.items()}
-    _check_filled(path, arrays, [line for line, _ in data])
+    _check_filled(path, arrays, [line for line, _ in data], required)
+    for name in REQUIRED:
+        arrays.setdefault(name, np.full(len(data), np.nan))
     return make_trials(experiment, **{k: arrays.get(k) for k in MEASURED},
                        se={k[:-3]: v for k, v in arrays.items() if k.endswith(SE_SUFFIX)},
                        scale_rel_sd=arrays.get("scale_rel_sd"), labels=labels,
@@ -224,7 +230,7 @@ def _read_rows(path: Path) -> tuple[bytes, list[tuple[int, list[str]]], dict | N
     return raw, rows, provenance
 
 
-def _check_header(path: Path, line: int, names: list[str]) -> None:
+def _check_header(path: Path, line: int, names: list[str], required: Sequence[str]) -> None:
     for name in names:
         if name not in ALLOWED:
             raise InputFileError(path, f"unknown column {name!r}; allowed columns: "
@@ -232,20 +238,21 @@ def _check_header(path: Path, line: int, names: list[str]) -> None:
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
         raise InputFileError(path, f"duplicate column(s) {', '.join(dupes)}", line=line)
-    missing = [n for n in REQUIRED if n not in names]
+    missing = [n for n in required if n not in names]
     if missing:
         raise InputFileError(path, f"missing required column(s) {', '.join(missing)}; the "
                                    f"header has {', '.join(names)}", line=line)
 
 
-def _check_filled(path: Path, arrays: dict[str, np.ndarray], lines: list[int]) -> None:
+def _check_filled(path: Path, arrays: dict[str, np.ndarray], lines: list[int],
+                  required: Sequence[str]) -> None:
     """Required columns have no empty cell; optional measured columns are all or nothing."""
-    for name in REQUIRED:
+    for name in required:
         missing = np.flatnonzero(np.isnan(arrays[name]))
         if missing.size:
             raise InputFileError(path, "empty cell; this column is required",
                                  line=lines[missing[0]], field=name)
-    for name in (c for c in (*MEASURED, *SYSTEMATIC) if c not in REQUIRED and c in arrays):
+    for name in (c for c in (*MEASURED, *SYSTEMATIC) if c not in required and c in arrays):
         if np.isnan(arrays[name]).any() and not np.isnan(arrays[name]).all():
             line = lines[int(np.flatnonzero(np.isnan(arrays[name]))[0])]
             raise InputFileError(path, "empty cell in a column that has values elsewhere; "

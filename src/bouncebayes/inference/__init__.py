@@ -5,6 +5,12 @@ The entry point is :func:`infer`; each sampler has its own configuration (:class
 pair (``mh_init``/``mh_step``, ``ensemble_init``/``ensemble_step``) with typed state records.
 """
 
+from ._adequacy import ALPHA as ADEQUACY_LEVEL
+from ._adequacy import Adequacy as Adequacy
+from ._adequacy import assess as assess_adequacy
+from ._adequacy import distribution_check as distribution_check
+from ._adequacy import failures as adequacy_failures
+from ._adequacy import hellinger as hellinger
 from ._config import CONFIGS as SAMPLER_CONFIGS
 from ._config import SAMPLERS as SAMPLERS
 from ._config import EnsembleConfig as EnsembleConfig
@@ -25,7 +31,10 @@ from ._infer import InferenceResult as InferenceResult
 from ._infer import format_table as format_table
 from ._infer import infer as infer
 from ._infer import load_inference as load_inference
+from ._likelihood import DISCREPANCIES as DISCREPANCIES
+from ._likelihood import DISCREPANCY_MEANINGS as DISCREPANCY_MEANINGS
 from ._likelihood import LIKELIHOODS as LIKELIHOODS
+from ._likelihood import STUDENT_T_DOF as STUDENT_T_DOF
 from ._likelihood import MEANINGS as MEANINGS
 from ._likelihood import noise_priors as noise_priors
 from ._memory import BYTES_PER_BOUNCE as BYTES_PER_BOUNCE
@@ -44,6 +53,8 @@ from ._summary import ParameterSummary as ParameterSummary
 from ._summary import marginal_modes as marginal_modes
 
 __all__ = [
+    "ADEQUACY_LEVEL", "Adequacy", "DISCREPANCIES", "STUDENT_T_DOF", "DISCREPANCY_MEANINGS", "adequacy_failures", "assess_adequacy",
+    "distribution_check", "hellinger",
     "BYTES_PER_BOUNCE", "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_CONFIGS", "SAMPLER_MEANINGS", "Draws",
     "EnsembleConfig", "EnsembleInfo", "EnsembleRun", "EnsembleState", "Forward", "GridConfig",
     "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",

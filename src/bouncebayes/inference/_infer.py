@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,12 +13,15 @@ import numpy as np
 from .._validate import check_choice
 from .._version import __version__
 from ..data import Experiment, Trials
+from ._adequacy import Adequacy, assess
 from ._checks import data_warnings
-from ._config import SAMPLERS, AnyConfig, config_for, sampler_config, sampler_of
+from ._config import (GRID_POINTS, SAMPLERS, AnyConfig, config_for, sampler_config,
+                      sampler_of)
 from ._draws import Draws
 from ._ensemble import EnsembleRun, sample_ensemble
 from ._grid import GridRun, check_grid_memory, grid_bytes, sample_grid
-from ._likelihood import LIKELIHOODS, MEANINGS, make_likelihood, noise_priors
+from ._likelihood import (DISCREPANCIES, DISCREPANCY_MEANINGS, LIKELIHOODS, MEANINGS,
+                          discrepancy_priors, make_likelihood, noise_priors)
 from ._memory import (BYTES_PER_BOUNCE, BYTES_PER_TRIAL, DEFAULT_MEMORY_BUDGET, RESIDENT_SHARE,
                       batch_rows, check_memory_budget, require)
 from ._mh import MHRun, sample_mh
@@ -32,6 +36,7 @@ SAMPLER_MEANINGS = {
     "grid": "exact quadrature on a grid over the prior box (no Monte Carlo error beyond the "
             "grid spacing)",
 }
+MISFIT = "the model misfits the data; see the adequacy verdict"
 RUN_TYPES: dict[str, Any] = {"mh": MHRun, "ensemble": EnsembleRun, "grid": GridRun}
 
 
@@ -55,6 +60,9 @@ class InferenceResult:
     log_likelihood: np.ndarray | None = None  #: (chains, draws, observations)
     replicates: Replicates | None = None
     memory_budget: int = DEFAULT_MEMORY_BUDGET
+    adequacy: Adequacy | None = None
+    discrepancy: str = "none"  #: the model discrepancy of this posterior
+    first_fit: dict | None = None  #: with discrepancy "auto": the fit without it, summarised
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -86,21 +94,28 @@ class InferenceResult:
                            "normal_law": self.experiment.normal_law,
                            "tangential": self.experiment.tangential},
             "memory_budget_bytes": self.memory_budget,
+            "discrepancy": self.discrepancy,
+            "discrepancy_meaning": DISCREPANCY_MEANINGS[self.discrepancy],
+            "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
+            "fit_without_discrepancy": self.first_fit,
             "bouncebayes_version": __version__, "seconds": self.seconds,
         }
 
 
-def infer(experiment: Experiment, trials: Trials, *, likelihood: str = "gaussian",
-          sampler: str | None = None, seed: int = 0, config: Any = None, noise: str = "auto",
-          progress: bool = False,
+def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = None,
+          sampler: str | None = None, seed: int = 0, config: Any = None,
+          noise: str | None = None, discrepancy: str | None = None, progress: bool = False,
           memory_budget: int = DEFAULT_MEMORY_BUDGET) -> InferenceResult:
-    """Posterior of the experiment's inferred parameters given the trials.
+    """Posterior of the experiment's inferred parameters given the trials, and whether the
+    model reproduces them (``InferenceResult.adequacy``).
 
     Arguments:
-        experiment: the experiment (ball, incidence, priors of the inferred parameters).
+        experiment: the experiment (ball, incidence, priors of the inferred parameters, and in
+            its [inference] table the defaults of ``likelihood``, ``noise``, ``discrepancy``).
         trials: the measured bounces.
-        likelihood: ``"gaussian"`` (measurement model, default), ``"kde"`` (the paper's) or
-            ``"consistent"`` (data-consistent inversion); see ``docs/model.md`` and the README.
+        likelihood: ``"gaussian"`` (measurement model), ``"kde"`` (the paper's) or
+            ``"consistent"`` (data-consistent inversion); see ``docs/likelihoods.md``; default:
+            the experiment's (``"gaussian"`` unless it says otherwise).
         sampler: ``"mh"`` (the paper's Metropolis–Hastings), ``"ensemble"`` (emcee) or
             ``"grid"`` (exact quadrature, up to 3 parameters); default: the sampler of
             ``config``, else ``"mh"``.
@@ -109,40 +124,93 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str = "gaussian
             :class:`GridConfig` (default: the sampler's defaults; the paper's for mh).
         noise: for ``gaussian``: ``"given"`` (table standard errors), ``"inferred"`` (noise
             levels ``sigma_speed``, ``sigma_angle`` sampled with log-uniform priors) or
-            ``"auto"`` (given when every trial has them).
+            ``"auto"`` (given when every trial has them); default: the experiment's.
+        discrepancy: for ``gaussian`` with given noise: ``"none"`` (the model is exact),
+            ``"normal"`` or ``"student-t"`` (an inferred model error per observable,
+            ``discrepancy_speed`` and ``discrepancy_angle``, in quadrature to the standard
+            errors; Student-t residuals let outlying trials count less), or ``"auto"``
+            (none, unless the adequacy check fails without it: then the posterior is computed
+            again with ``"normal"``, with the mh sampler where the grid cannot hold the two
+            extra parameters); default: the experiment's (``"auto"``).
         progress: show progress bars.
         memory_budget: bytes the inference may hold at once (default 2 GiB). Large tables and
             grids are worked through in batches within it; a request that cannot fit (a grid
             too fine, too many draws) is refused up front with the estimate.
     """
+    settings = experiment.inference
+    likelihood = settings["likelihood"] if likelihood is None else likelihood
+    noise = settings["noise"] if noise is None else noise
+    discrepancy = settings["discrepancy"] if discrepancy is None else discrepancy
     sampler = sampler if sampler is not None else (sampler_of(config) or "mh")
-    _check_arguments(likelihood, sampler, noise, seed)
+    _check_arguments(likelihood, sampler, noise, discrepancy, seed)
     budget = check_memory_budget(memory_budget)
     config = config_for(sampler, config)
-    names = experiment.parameter_names
-    if not names:
+    if not experiment.parameter_names:
         raise ValueError(f"{experiment.source}: no [parameters.NAME] table: nothing to infer")
-    work = budget - _plan(likelihood, sampler, config, len(names), trials, budget)
+    fixed = "none" if discrepancy == "auto" else discrepancy
+    result = _infer_once(experiment, trials, likelihood, sampler, seed, config, noise, fixed,
+                         progress, budget)
+    if discrepancy != "auto" or result.adequacy is None or result.adequacy.adequate or (
+            likelihood != "gaussian" or result.likelihood_info.get("noise") != "given"):
+        return result
+    return _refit_with_discrepancy(result, noise, progress)
+
+
+def _infer_once(experiment: Experiment, trials: Trials, likelihood: str, sampler: str,
+                seed: int, config: AnyConfig, noise: str, discrepancy: str, progress: bool,
+                budget: int) -> InferenceResult:
+    """One posterior with fixed settings: sampler, posterior pass, adequacy, summaries."""
+    names = experiment.parameter_names
+    extra = 2 if discrepancy != "none" else 0
+    work = budget - _plan(likelihood, sampler, config, len(names) + extra, trials, budget)
     notes = data_warnings(experiment, trials)
     start = time.perf_counter()
     rng_likelihood, rng_sampler, rng_pass = np.random.default_rng(seed).spawn(3)
     like = make_likelihood(likelihood, experiment, trials, names, rng=rng_likelihood,
-                           noise=noise, memory_budget=work)
+                           noise=noise, discrepancy=discrepancy, memory_budget=work)
     post = _log_posterior(like, experiment, names, work)
     run = {"mh": sample_mh, "ensemble": sample_ensemble, "grid": sample_grid}[sampler]
     draws = run(post, config, rng_sampler, progress)  # type: ignore[operator]
     checked = posterior_pass(like, draws, rng_pass, work)
-    params, warns = _summarize(post, draws, checked, notes, likelihood, trials)
+    adequacy = assess(like, draws.samples, draws.lp, checked.replicates, trials, work)
+    params, warns = _summarize(post, draws, checked, notes, likelihood, trials, adequacy)
     return InferenceResult(experiment, trials, likelihood, sampler, int(seed), config, post,
                            draws, params, checked.regimes, tuple(warns), like.describe(),
                            time.perf_counter() - start, checked.log_likelihood,
-                           checked.replicates, budget)
+                           checked.replicates, budget, adequacy, discrepancy)
 
 
-def _check_arguments(likelihood: str, sampler: str, noise: str, seed: Any) -> None:
+def _refit_with_discrepancy(first: InferenceResult, noise: str,
+                            progress: bool) -> InferenceResult:
+    """``discrepancy="auto"`` after a failed adequacy check: the posterior again with a normal
+    model discrepancy (mh where the grid cannot hold two more parameters), saying why."""
+    sampler, config = first.sampler, first.config
+    if sampler == "grid" and len(first.names) + 2 > max(GRID_POINTS):
+        sampler, config = "mh", sampler_config("mh", draws=max(first.config.draws, 4000))
+    second = _infer_once(first.experiment, first.trials, first.likelihood, sampler, first.seed,
+                         config, noise, "normal", progress, first.memory_budget)
+    a = first.adequacy
+    assert a is not None  # the caller refits only after a failed check
+    how = "" if sampler == first.sampler else " by the mh sampler (the grid holds 3 parameters)"
+    why = (f"the model without a discrepancy term did not reproduce the data (chi-square per "
+           f"degree of freedom {a.chi2 / max(a.dof, 1):.3g}), so with `discrepancy` = auto the "
+           f"posterior was computed again with an inferred model discrepancy (normal){how}; its "
+           f"intervals include the model error")
+    record = {"adequacy": a.to_dict(),
+              "parameters": {p.name: p.to_dict() for p in first.parameters},
+              "sampler": first.sampler, "seconds": first.seconds}
+    k = len(data_warnings(first.experiment, first.trials))  # what the data cannot be: first
+    warns = second.warnings[:k] + (why,) + second.warnings[k:]
+    return dataclasses.replace(second, warnings=warns, first_fit=record,
+                               seconds=first.seconds + second.seconds)
+
+
+def _check_arguments(likelihood: str, sampler: str, noise: str, discrepancy: str,
+                     seed: Any) -> None:
     check_choice("likelihood", likelihood, LIKELIHOODS)
     check_choice("sampler", sampler, SAMPLERS)
     check_choice("noise", noise, ("auto", "given", "inferred"))
+    check_choice("discrepancy", discrepancy, DISCREPANCIES)
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ValueError(f"`seed` must be a non-negative integer; got {seed!r}")
 
@@ -178,14 +246,16 @@ def _log_posterior(like, experiment: Experiment, names, work: float) -> LogPoste
 
 
 def _summarize(post: LogPosterior, draws: Draws, checked: PosteriorPass, notes: list[str],
-               likelihood: str, trials: Trials):
+               likelihood: str, trials: Trials, adequacy: Adequacy):
     diag = diagnostics(draws.samples, post.names)
+    misfit = "" if adequacy.adequate else MISFIT
     params = tuple(summarize_parameter(n, u, p, draws.samples[..., i].ravel(), diag[n],
-                                       checked.regimes["share_rolling"])
+                                       checked.regimes["share_rolling"], misfit=misfit)
                    for i, (n, u, p) in enumerate(zip(post.names, post.units, post.priors,
                                                      strict=True)))
-    warns = notes + warnings_for(list(params), draws.samples, post.priors, draws.info,
-                                 impossible_data=bool(notes))
+    # what the data cannot be, then whether the model reproduces them, then the sampler's own
+    warns = notes + ([] if adequacy.adequate else [adequacy.verdict]) + warnings_for(
+        list(params), draws.samples, post.priors, draws.info, impossible_data=bool(notes))
     if likelihood == "gaussian":
         warns += [f"{c} was measured but has no standard errors ({c}_se): the gaussian "
                   f"likelihood treats it as exact, which makes the posterior too narrow if it "
@@ -202,7 +272,10 @@ def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
     ``summary`` (the content of summary.json), without its likelihood object."""
     names = tuple(summary["parameters"])
     arrays = read_posterior(posterior, names)
-    extra = noise_priors(trials) if set(names) - set(experiment.priors) else {}
+    discrepancy = summary.get("discrepancy", "none")
+    extra: dict[str, Any] = {}
+    if set(names) - set(experiment.priors):
+        extra = discrepancy_priors(trials) if discrepancy != "none" else noise_priors(trials)
     priors = tuple(experiment.priors[n] if n in experiment.priors else extra[n] for n in names)
     units = tuple(p["unit"] for p in summary["parameters"].values())
     params = tuple(ParameterSummary(**_fields(p)) for p in summary["parameters"].values())
@@ -219,7 +292,16 @@ def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
                            summary["regimes"], tuple(summary["warnings"]),
                            summary["likelihood_details"], summary["seconds"],
                            arrays["log_likelihood"], None if rep is None else Replicates(*rep),
-                           int(summary.get("memory_budget_bytes", DEFAULT_MEMORY_BUDGET)))
+                           int(summary.get("memory_budget_bytes", DEFAULT_MEMORY_BUDGET)),
+                           _saved_adequacy(summary, trials, arrays), discrepancy,
+                           summary.get("fit_without_discrepancy"))
+
+
+def _saved_adequacy(summary: dict, trials: Trials, arrays: dict) -> Adequacy | None:
+    record = summary.get("adequacy")
+    if record is None or arrays.get("adequacy") is None:
+        return None
+    return Adequacy.from_saved(record, tuple(trials.labels), arrays["adequacy"])
 
 
 def _fields(p: dict[str, Any]) -> dict[str, Any]:

@@ -1,5 +1,7 @@
 """Compiled inner loops of the samplers: the gaussian likelihood's terms (one pass over
-(rows, trials), no temporaries), the prior's box, and Metropolis–Hastings proposal and accept.
+(rows, trials), no temporaries; with inferred noise or model discrepancy, normal or Student-t
+residuals and the shared scale factor marginalised), the prior's box, and Metropolis–Hastings
+proposal and accept.
 
 Samplers evaluate the posterior thousands of times on a few rows (one per chain) of 55 trials
 each. There a chain of NumPy expressions costs far more in per-call overhead (about a
@@ -57,34 +59,73 @@ def given_noise_terms(speed, angle, ok, obs_speed, obs_angle, i00, i01, i11, log
             out[r, k] = t if ok[r, k] and t == t else -math.inf
 
 
+@njit(cache=True, inline="always")
+def _log_density(q, log_norm, nu):
+    """Log-density of a bivariate residual with squared Mahalanobis length ``q`` and
+    ``log_norm = 0.5 log det + log 2 pi``: normal where ``nu`` is infinite, else Student-t
+    with ``nu`` degrees of freedom (whose bivariate normalisation, Gamma((nu + 2) / 2) /
+    (Gamma(nu / 2) nu pi), is the normal's 1 / (2 pi))."""
+    if nu == math.inf:
+        return -0.5 * q - log_norm
+    return -log_norm - 0.5 * (nu + 2.0) * math.log1p(q / nu)
+
+
 @njit(cache=True, error_model="numpy")
-def inferred_noise_terms(speed, angle, ok, obs_speed, obs_angle, p00, p01, p11, sigma_speed,
-                         sigma_angle, out):
-    """Per-trial log-densities with covariance ``P_k + diag(sigma_speed[r]^2,
-    sigma_angle[r]^2)`` (``P_k``: the propagated incidence uncertainty of trial k)."""
+def measurement_terms(speed, angle, ok, obs_speed, obs_angle, c00, c01, c11, g_speed,
+                      g_angle, extra_speed, extra_angle, nu, out):
+    """Per-trial log-densities ``out[r, k]`` of each trial on its own: covariance
+    ``C_k + diag(extra_speed[r]^2, extra_angle[r]^2) + g_k g_k^T`` (``C_k``: the trial's fixed
+    part; ``extra``: inferred noise or model discrepancy of row r; ``g_k``: the trial's
+    sensitivity to the shared scale factor), normal or Student-t (``nu``)."""
     for r in range(speed.shape[0]):
-        vs, va = sigma_speed[r] ** 2, sigma_angle[r] ** 2
+        vs, va = extra_speed[r] ** 2, extra_angle[r] ** 2
         for k in range(speed.shape[1]):
-            i00, i01, i11, log_norm = _inverse(p00[k] + vs, p01[k], p11[k] + va)
-            t = _term(speed[r, k], angle[r, k], obs_speed[k], obs_angle[k], i00, i01, i11,
-                      log_norm)
+            i00, i01, i11, log_norm = _inverse(c00[k] + vs + g_speed[k] * g_speed[k],
+                                               c01[k] + g_speed[k] * g_angle[k],
+                                               c11[k] + va + g_angle[k] * g_angle[k])
+            ds = speed[r, k] - obs_speed[k]
+            da = angle[r, k] - obs_angle[k]
+            t = _log_density(i00 * ds * ds + 2.0 * i01 * ds * da + i11 * da * da, log_norm, nu)
             out[r, k] = t if ok[r, k] and t == t else -math.inf
 
 
 @njit(cache=True, error_model="numpy")
-def inferred_noise_sum(speed, angle, ok, obs_speed, obs_angle, p00, p01, p11, sigma_speed,
-                       sigma_angle, out):
-    """Row sums of :func:`inferred_noise_terms` (``-inf`` if any trial failed)."""
+def measurement_sum(speed, angle, ok, obs_speed, obs_angle, c00, c01, c11, g_speed, g_angle,
+                    extra_speed, extra_angle, nu, nodes, log_weights, out):
+    """``out[r]``: the joint log-likelihood of every trial of row r, the shared scale factor
+    ``eps ~ N(0, 1)`` (observation k moves by ``eps g_k``) marginalised. Normal residuals: in
+    closed form (the matrix determinant lemma and Sherman-Morrison formula for the rank-one
+    covariance ``g g^T`` shared by all trials); Student-t: by Gauss-Hermite quadrature over
+    eps at ``nodes`` with normalised ``log_weights``. ``-inf`` if any trial failed."""
+    acc = np.empty(nodes.size)
     for r in range(speed.shape[0]):
-        vs, va = sigma_speed[r] ** 2, sigma_angle[r] ** 2
-        total = 0.0
+        vs, va = extra_speed[r] ** 2, extra_angle[r] ** 2
+        total, a, b = 0.0, 0.0, 0.0
+        acc[:] = log_weights
         for k in range(speed.shape[1]):
             if not ok[r, k]:
                 total = -math.inf
                 break
-            i00, i01, i11, log_norm = _inverse(p00[k] + vs, p01[k], p11[k] + va)
-            total += _term(speed[r, k], angle[r, k], obs_speed[k], obs_angle[k], i00, i01,
-                           i11, log_norm)
+            i00, i01, i11, log_norm = _inverse(c00[k] + vs, c01[k], c11[k] + va)
+            ds = speed[r, k] - obs_speed[k]
+            da = angle[r, k] - obs_angle[k]
+            if nu == math.inf:
+                total += -0.5 * (i00 * ds * ds + 2.0 * i01 * ds * da + i11 * da * da) - log_norm
+                ws = i00 * g_speed[k] + i01 * g_angle[k]
+                wa = i01 * g_speed[k] + i11 * g_angle[k]
+                a += g_speed[k] * ws + g_angle[k] * wa
+                b += ds * ws + da * wa
+            else:
+                for j in range(nodes.size):
+                    es = ds + nodes[j] * g_speed[k]
+                    ea = da + nodes[j] * g_angle[k]
+                    acc[j] += _log_density(i00 * es * es + 2.0 * i01 * es * ea + i11 * ea * ea,
+                                           log_norm, nu)
+        if total > -math.inf and nu == math.inf:
+            total += 0.5 * b * b / (1.0 + a) - 0.5 * math.log1p(a)
+        elif total > -math.inf:
+            top = acc.max()
+            total = top + math.log(np.sum(np.exp(acc - top))) if top > -math.inf else top
         out[r] = total if total == total else -math.inf
 
 

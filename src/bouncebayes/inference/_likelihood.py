@@ -26,21 +26,21 @@ them.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal, NamedTuple, get_args
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.stats import qmc
 
-from ..data import Experiment, LogUniform, Prior, Trials
+from ..data import INFERENCE_CHOICES, Experiment, LogUniform, Prior, Trials
 from ..density import ReboundDensity, rebound_density
 from . import _kernels as _kernel_module
 from ._forward import Forward
 from ._memory import BYTES_PER_BOUNCE, DEFAULT_MEMORY_BUDGET, batch_rows
 
 _kernels: Any = _kernel_module  # numba dispatchers: mypy cannot see their signatures
-LikelihoodName = Literal["kde", "gaussian", "consistent"]
-LIKELIHOODS: tuple[str, ...] = get_args(LikelihoodName)
+LIKELIHOODS: tuple[str, ...] = INFERENCE_CHOICES["likelihood"]
 
 MEANINGS = {
     "kde": "the paper's likelihood: the density of the measured rebounds (kernel density "
@@ -56,8 +56,22 @@ MEANINGS = {
                   "bounce-to-bounce variability of the parameters, not the uncertainty of one "
                   "value.",
 }
+DISCREPANCIES: tuple[str, ...] = INFERENCE_CHOICES["discrepancy"]
+DISCREPANCY_PARAMETERS = ("discrepancy_speed", "discrepancy_angle")
+DISCREPANCY_MEANINGS = {
+    "none": "none: the model is taken as exact, residuals are measurement noise only",
+    "normal": "inferred: a model error per observable (discrepancy_speed, discrepancy_angle), "
+              "normal, added in quadrature to each trial's standard errors",
+    "student-t": "inferred: a model error per observable (discrepancy_speed, "
+                 "discrepancy_angle) added in quadrature to each trial's standard errors, with "
+                 "Student-t residuals (4 degrees of freedom) that let outlying trials count "
+                 "less",
+}
+STUDENT_T_DOF = 4.0  #: degrees of freedom of the heavy-tailed residuals (docs/likelihoods.md)
+HERMITE_NODES = 20  #: Gauss-Hermite nodes over the shared scale with Student-t residuals
 NOISE_PARAMETERS = ("sigma_speed", "sigma_angle")
-NOISE_UNITS = {"sigma_speed": "m/s", "sigma_angle": "deg"}
+NOISE_UNITS = {"sigma_speed": "m/s", "sigma_angle": "deg", "discrepancy_speed": "m/s",
+               "discrepancy_angle": "deg"}
 JACOBIAN_TRIALS = 2000  #: trials (evenly spaced) that choose where to linearise
 POINTWISE_MEANING = {
     "gaussian": "per trial: the log-density of each trial's measured rebound",
@@ -159,8 +173,11 @@ class ConsistentLikelihood(_AtNominal):
 
 @dataclass(frozen=True)
 class GaussianLikelihood:
-    """Bivariate normal per trial: residual covariance = measurement noise of the rebound plus
-    J Sigma_inc J^T, the incidence uncertainty pushed through the model's Jacobian J."""
+    """Bivariate residual per trial: covariance = measurement noise of the rebound plus
+    J Sigma_inc J^T (the incidence uncertainty pushed through the model's Jacobian J), plus an
+    inferred model discrepancy in quadrature where asked (normal or Student-t residuals), with
+    the campaign's shared scale factor marginalised where the table states its uncertainty
+    (``docs/likelihoods.md``)."""
 
     forward: Forward
     speed: np.ndarray  #: observed rebound speeds, m/s
@@ -173,28 +190,51 @@ class GaussianLikelihood:
     extra_parameters: tuple[tuple[str, Prior, str], ...] = ()  #: (name, prior, unit)
     incidence: np.ndarray | None = None  #: (n, 3) incident speed, angle, spin per trial
     name: str = "gaussian"
+    discrepancy: str = "none"  #: "none", "normal" or "student-t" (model error, inferred)
+    scale: np.ndarray | None = None  #: (n, 2) rebound speed, angle per sd of the shared scale
     _terms: tuple[np.ndarray, ...] = field(init=False, repr=False, compare=False)
+    _general: tuple[np.ndarray, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        """Precompute what every call needs: contiguous observations and either the inverse
-        covariances and normalisations (given noise) or the propagated parts (inferred)."""
-        cov = self.propagated.copy()
-        cov[:, 0, 0] += self.rebound_var[:, 0]
-        cov[:, 1, 1] += self.rebound_var[:, 1]
+        """Precompute what every call needs: contiguous observations, the inverse covariances
+        and normalisations (the plain case: given noise, nothing else), and the fixed
+        covariance parts and shared-scale sensitivities (every other case)."""
+        cov = self.fixed_covariance()
         c00, c01, c11 = (np.ascontiguousarray(cov[:, i, j]) for i, j in ((0, 0), (0, 1), (1, 1)))
-        terms: tuple[np.ndarray, ...]
-        if self.noise == "given":
-            det = c00 * c11 - c01**2
-            terms = (c11 / det, -c01 / det, c00 / det, 0.5 * np.log(det) + _kernels.LOG_2PI)
-        else:
-            terms = (c00, c01, c11)
         obs = (np.ascontiguousarray(self.speed, dtype=float),
                np.ascontiguousarray(self.angle, dtype=float))
-        object.__setattr__(self, "_terms", obs + terms)
+        terms: tuple[np.ndarray, ...] = ()
+        if self.simple:  # the covariances are fixed: invert them once
+            det = c00 * c11 - c01**2
+            terms = (c11 / det, -c01 / det, c00 / det, 0.5 * np.log(det) + _kernels.LOG_2PI)
+        object.__setattr__(self, "_terms", obs + terms if self.simple else ())
+        g = np.zeros((self.speed.size, 2)) if self.scale is None else self.scale
+        nodes, log_w = _hermite(self.scale is not None and self.nu < math.inf)
+        object.__setattr__(self, "_general", obs + (c00, c01, c11) + (
+            np.ascontiguousarray(g[:, 0]), np.ascontiguousarray(g[:, 1])) + (nodes, log_w))
+
+    @property
+    def simple(self) -> bool:
+        """Given noise, no discrepancy, no shared scale: the closed-form, compiled path."""
+        return self.noise == "given" and self.discrepancy == "none" and self.scale is None
+
+    @property
+    def nu(self) -> float:
+        """Degrees of freedom of the residuals (infinite: normal)."""
+        return STUDENT_T_DOF if self.discrepancy == "student-t" else math.inf
 
     @property
     def bytes_per_row(self) -> float:
         return float(self.forward.n_conditions * BYTES_PER_BOUNCE)
+
+    def fixed_covariance(self) -> np.ndarray:
+        """(n, 2, 2): the propagated incidence uncertainty plus, with given noise, the
+        measurement variances; the inferred noise or discrepancy add to it per row."""
+        cov = self.propagated.copy()
+        if self.noise == "given":
+            cov[:, 0, 0] += self.rebound_var[:, 0]
+            cov[:, 1, 1] += self.rebound_var[:, 1]
+        return cov
 
     def _model(self, theta: np.ndarray):
         theta = np.asarray(theta, dtype=float)
@@ -202,48 +242,71 @@ class GaussianLikelihood:
         d = len(self.forward.names)
         return theta, self.forward(theta if theta.shape[1] == d else theta[:, :d])
 
+    def extra_sd(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per row: the sd added in quadrature to each trial's (inferred noise levels or
+        model discrepancy; zeros where neither is inferred)."""
+        d = len(self.forward.names)
+        if theta.shape[1] < d + 2:
+            zeros = np.zeros(theta.shape[0])
+            return zeros, zeros
+        return np.ascontiguousarray(theta[:, d]), np.ascontiguousarray(theta[:, d + 1])
+
     def __call__(self, theta: np.ndarray) -> np.ndarray:
         theta, r = self._model(theta)
         out = np.empty(theta.shape[0])
-        if self.noise == "given":
+        if self.simple:
             _kernels.given_noise_sum(r.speed, r.angle, r.ok, *self._terms, out)
         else:
-            d = len(self.forward.names)
-            _kernels.inferred_noise_sum(r.speed, r.angle, r.ok, *self._terms,
-                                        np.ascontiguousarray(theta[:, d]),
-                                        np.ascontiguousarray(theta[:, d + 1]), out)
+            g = self._general
+            _kernels.measurement_sum(r.speed, r.angle, r.ok, *g[:7], *self.extra_sd(theta),
+                                     self.nu, *g[7:], out)
         return out
 
     def pointwise(self, theta: np.ndarray) -> Pointwise:
-        """Log-density of each trial's rebound, (n, trials)."""
+        """Log-density of each trial's rebound, (n, trials): of each trial on its own (with
+        the shared scale's variance) where a shared scale is marginalised."""
         theta, r = self._model(theta)
         out = np.empty(r.speed.shape)
-        if self.noise == "given":
+        if self.simple:
             _kernels.given_noise_terms(r.speed, r.angle, r.ok, *self._terms, out)
         else:
-            d = len(self.forward.names)
-            _kernels.inferred_noise_terms(r.speed, r.angle, r.ok, *self._terms,
-                                          np.ascontiguousarray(theta[:, d]),
-                                          np.ascontiguousarray(theta[:, d + 1]), out)
+            _kernels.measurement_terms(r.speed, r.angle, r.ok, *self._general[:7],
+                                       *self.extra_sd(theta), self.nu, out)
         return Pointwise(out, r)
+
+    def covariances(self, theta: np.ndarray) -> np.ndarray:
+        """(rows, n, 2, 2): each trial's residual covariance on its own at each row (fixed part,
+        inferred noise or discrepancy, shared scale)."""
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        cov = np.broadcast_to(self.fixed_covariance(), (theta.shape[0],) + self.propagated.shape)
+        cov = cov.copy()
+        es, ea = self.extra_sd(theta)
+        cov[..., 0, 0] += es[:, None] ** 2
+        cov[..., 1, 1] += ea[:, None] ** 2
+        if self.scale is not None:
+            cov += self.scale[None, :, :, None] * self.scale[None, :, None, :]
+        return cov
 
     def predict(self, theta: np.ndarray, rebounds, rng: np.random.Generator):
         """Replicated measurements (n, trials): each trial's simulated rebound plus a draw of
-        its measurement noise (covariance as in the likelihood)."""
+        its measurement noise and discrepancy (normal, or Student-t), plus one shared scale
+        error per row."""
         theta = np.atleast_2d(theta)
-        cov = np.broadcast_to(self.propagated, rebounds.speed.shape + (2, 2)).copy()
-        if self.noise == "given":
-            cov[..., 0, 0] += self.rebound_var[:, 0]
-            cov[..., 1, 1] += self.rebound_var[:, 1]
-        else:
-            d = len(self.forward.names)
-            cov[..., 0, 0] += theta[:, d, None] ** 2
-            cov[..., 1, 1] += theta[:, d + 1, None] ** 2
+        cov = self.covariances(theta)
+        if self.scale is not None:  # the shared part is drawn once per row below
+            cov -= self.scale[None, :, :, None] * self.scale[None, :, None, :]
         l00 = np.sqrt(cov[..., 0, 0])
         l10 = np.divide(cov[..., 0, 1], l00, out=np.zeros_like(l00), where=l00 > 0)
         l11 = np.sqrt(np.maximum(cov[..., 1, 1] - l10**2, 0.0))
         z = rng.standard_normal((2,) + rebounds.speed.shape)
-        return rebounds.speed + l00 * z[0], rebounds.angle + l10 * z[0] + l11 * z[1]
+        if self.nu < math.inf:  # a bivariate t: the normal over sqrt(chi2_nu / nu)
+            z /= np.sqrt(rng.chisquare(self.nu, size=rebounds.speed.shape) / self.nu)
+        speed = rebounds.speed + l00 * z[0]
+        angle = rebounds.angle + l10 * z[0] + l11 * z[1]
+        if self.scale is not None:
+            eps = rng.standard_normal((rebounds.speed.shape[0], 1))
+            speed, angle = speed + eps * self.scale[:, 0], angle + eps * self.scale[:, 1]
+        return speed, angle
 
     def subset(self, most: int) -> GaussianLikelihood:
         """The likelihood of at most ``most`` evenly spaced trials (itself when it has no
@@ -257,14 +320,15 @@ class GaussianLikelihood:
                           angle=inc[:, 1], spin=inc[:, 2])
         return replace(self, forward=forward, speed=self.speed[pick], angle=self.angle[pick],
                        rebound_var=self.rebound_var[pick], propagated=self.propagated[pick],
-                       observations=tuple(self.observations[i] for i in pick), incidence=inc)
+                       observations=tuple(self.observations[i] for i in pick), incidence=inc,
+                       scale=None if self.scale is None else self.scale[pick])
 
     def structured_grid(self, names: tuple[str, ...], axes) -> tuple[np.ndarray,
                                                                       np.ndarray] | None:
         """Log-likelihood on the (mu, eta) mesh of ``axes`` (in ``names`` order) without
         repeating the normal impact for every mu, and the cells it could not do exactly;
-        ``None`` unless the parameters are exactly mu and eta with given noise."""
-        if self.noise != "given" or sorted(names) != ["eta", "mu"]:
+        ``None`` unless the parameters are exactly mu and eta in the plain case."""
+        if not self.simple or sorted(names) != ["eta", "mu"]:
             return None
         from ._grid_kernel import gaussian_grid
 
@@ -273,11 +337,27 @@ class GaussianLikelihood:
         return (ll.T, bad.T) if i_mu == 1 else (ll, bad)
 
     def describe(self) -> dict:
-        return {"noise": self.noise, "incidence": "per trial",
-                "incidence_uncertainty": "propagated through the model's Jacobian at "
-                                         + ", ".join(f"{k} = {v:.6g}" for k, v in
-                                                     self.jacobian_at.items()),
-                "pointwise": POINTWISE_MEANING["gaussian"]}
+        out: dict[str, Any] = {"noise": self.noise, "incidence": "per trial",
+               "incidence_uncertainty": "propagated through the model's Jacobian at "
+                                        + ", ".join(f"{k} = {v:.6g}" for k, v in
+                                                    self.jacobian_at.items()),
+               "discrepancy": DISCREPANCY_MEANINGS[self.discrepancy],
+               "shared_scale": ("marginalised: one scale factor for the campaign, relative sd "
+                                "from the table's scale_rel_sd" if self.scale is not None
+                                else "none stated (no scale_rel_sd column)"),
+               "pointwise": POINTWISE_MEANING["gaussian"]}
+        if self.discrepancy == "student-t":
+            out["student_t_dof"] = STUDENT_T_DOF
+        return out
+
+
+def _hermite(needed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Hermite nodes for eps ~ N(0, 1) and normalised log weights (one node at 0 where
+    no quadrature is needed)."""
+    if not needed:
+        return np.zeros(1), np.zeros(1)
+    x, w = np.polynomial.hermite_e.hermegauss(HERMITE_NODES)
+    return x, np.log(w / w.sum())
 
 
 Likelihood = KDELikelihood | ConsistentLikelihood | GaussianLikelihood
@@ -300,13 +380,19 @@ def noise_priors(trials: Trials) -> dict[str, Prior]:
 
 
 def make_likelihood(name: str, experiment: Experiment, trials: Trials, names: tuple[str, ...],
-                    *, rng: np.random.Generator, noise: str = "auto",
+                    *, rng: np.random.Generator, noise: str = "auto", discrepancy: str = "none",
                     bandwidth="normal-reference", density_kind: Any = "auto",
                     n_predicted: int = 4000,
                     memory_budget: float = DEFAULT_MEMORY_BUDGET) -> Likelihood:
     """Build the named likelihood for the inferred parameters ``names`` (model parameters);
-    ``memory_budget``: bytes its preparation may use for model evaluations at once."""
+    ``discrepancy`` ("none", "normal" or "student-t"; gaussian only) adds an inferred model
+    error; ``memory_budget``: bytes its preparation may use for model evaluations at once."""
     if name in ("kde", "consistent"):
+        if discrepancy not in ("none", "auto"):
+            raise ValueError(f"`discrepancy` ({discrepancy!r}) applies to the gaussian "
+                             f"likelihood, which compares each trial with the model; the "
+                             f"{name} likelihood compares distributions: use "
+                             f"discrepancy='none'")
         _check_spread(trials, name)
         speed, angle, spin = _nominal(experiment)
         forward = Forward(experiment, names, speed=speed, angle=angle, spin=spin)
@@ -315,7 +401,24 @@ def make_likelihood(name: str, experiment: Experiment, trials: Trials, names: tu
         if name == "kde":
             return KDELikelihood(forward, observed)
         return _consistent(forward, observed, experiment, names, rng, n_predicted)
-    return _gaussian(experiment, trials, names, noise, memory_budget)
+    return _gaussian(experiment, trials, names, noise,
+                     "none" if discrepancy == "auto" else discrepancy, memory_budget)
+
+
+def discrepancy_priors(trials: Trials) -> dict[str, Prior]:
+    """Log-uniform priors of the model discrepancy per observable: from 1e-3 times the median
+    standard error (a model error far below the noise, indistinguishable from none) to the
+    larger of 10 times the observations' spread and their mean size (a model error as large as
+    the rebound itself)."""
+    out: dict[str, Prior] = {}
+    for name, column in zip(DISCREPANCY_PARAMETERS, ("rebound_speed", "rebound_angle"),
+                            strict=True):
+        x, se = trials.column(column), np.asarray(trials.se[column], dtype=float)
+        floor = 1e-3 * float(np.median(se))
+        top = max(10.0 * (float(np.std(x, ddof=1)) if x.size > 1 else 0.0),
+                  float(np.mean(np.abs(x))), 1e3 * floor)
+        out[name] = LogUniform(floor, top)
+    return out
 
 
 def _check_spread(trials: Trials, likelihood: str) -> None:
@@ -348,29 +451,41 @@ def _consistent(forward, observed, experiment, names, rng, n):
                                 float(np.mean(ratio)))
 
 
-def _gaussian(experiment: Experiment, trials: Trials, names, noise: str,
+def _gaussian(experiment: Experiment, trials: Trials, names, noise: str, discrepancy: str,
               budget: float) -> GaussianLikelihood:
     se = np.column_stack([trials.se["rebound_speed"], trials.se["rebound_angle"]])
+    have_se = bool(np.all(np.isfinite(se)) and np.all(se > 0))
     if noise == "auto":
-        noise = "given" if np.all(np.isfinite(se)) and np.all(se > 0) else "inferred"
-    if noise == "given" and not (np.all(np.isfinite(se)) and np.all(se > 0)):
+        noise = "given" if have_se else "inferred"
+    if noise == "given" and not have_se:
         raise ValueError(f"{trials.source}: noise='given' needs positive standard errors in "
                          "rebound_speed_se and rebound_angle_se for every trial; leave them out "
                          "to infer the noise levels instead")
+    if discrepancy != "none" and noise != "given":
+        raise ValueError(f"{trials.source}: `discrepancy` ({discrepancy!r}) adds a model error "
+                         f"to each trial's standard errors, and this table has none "
+                         f"(rebound_speed_se, rebound_angle_se), so the noise levels are "
+                         f"inferred instead, which already absorbs a model error; give the "
+                         f"standard errors, or use discrepancy='none'")
     extra: tuple = ()
     if noise == "inferred":
         priors = noise_priors(trials)
         extra = tuple((n, priors[n], NOISE_UNITS[n]) for n in NOISE_PARAMETERS)
+    elif discrepancy != "none":
+        priors = discrepancy_priors(trials)
+        extra = tuple((n, priors[n], NOISE_UNITS[n]) for n in DISCREPANCY_PARAMETERS)
     forward = Forward(experiment, names, speed=trials.incidence_speed,
                       angle=trials.incidence_angle, spin=trials.incidence_spin)
     at = _jacobian_point(experiment, trials, names, se, noise, budget)
-    propagated = _propagated_covariance(experiment, trials, names, at, budget)
+    sens = _incidence_sensitivity(experiment, trials, names, at, budget)
     return GaussianLikelihood(forward, np.asarray(trials.rebound_speed),
                               np.asarray(trials.rebound_angle), noise,
-                              se**2 if noise == "given" else np.zeros_like(se), propagated,
+                              se**2 if noise == "given" else np.zeros_like(se),
+                              sens.propagated(_incidence_variance(experiment, trials)),
                               dict(zip(names, at.tolist(), strict=True)), trials.labels, extra,
                               np.column_stack([trials.incidence_speed, trials.incidence_angle,
-                                               trials.incidence_spin]).astype(float))
+                                               trials.incidence_spin]).astype(float),
+                              discrepancy=discrepancy, scale=sens.shared_scale(trials))
 
 
 def _incidence_variance(experiment: Experiment, trials: Trials) -> np.ndarray:
@@ -389,30 +504,68 @@ def _incidence_variance(experiment: Experiment, trials: Trials) -> np.ndarray:
     return np.column_stack(out)
 
 
-def _propagated_covariance(experiment, trials, names, at, budget) -> np.ndarray:
-    """J Sigma_inc J^T per trial, J by central differences of the model at ``at``, in blocks
-    of trials that fit the memory budget."""
+@dataclass(frozen=True)
+class _Sensitivity:
+    """The model's rebound and its derivatives with respect to the incidence, per trial, at
+    the linearisation point: ``rebound`` (n, 2) speed and angle, ``jacobian`` (n, 2, 3) with
+    respect to incident speed, angle and spin (zero where not needed)."""
+
+    rebound: np.ndarray
+    jacobian: np.ndarray
+
+    def propagated(self, var: np.ndarray) -> np.ndarray:
+        """J Sigma_inc J^T per trial for the incidence variances ``var`` (n, 3)."""
+        j = self.jacobian
+        return np.nan_to_num(np.einsum("nik,nk,njk->nij", j, var, j))
+
+    def shared_scale(self, trials: Trials) -> np.ndarray | None:
+        """Each trial's rebound speed and angle per standard deviation of the campaign's shared
+        scale factor (``None`` without a ``scale_rel_sd`` column): every length, so every speed
+        of the table, is ``s`` times the true one, so the measured rebound speed is
+        ``s h(v_in / s)``, which moves by ``(h - v_in dh/dv_in) (s - 1)`` to first order (the
+        incidence term only where the incident speed was measured with the same camera), and
+        the angle by ``-v_in dh_angle/dv_in (s - 1)``."""
+        sd = np.asarray(trials.scale_rel_sd, dtype=float)
+        if sd.size == 0 or not np.all(np.isfinite(sd)) or not np.any(sd > 0):
+            return None
+        v_in = np.asarray(trials.incidence_speed, dtype=float)
+        measured = 1.0 if "incidence_speed" in trials.measured else 0.0
+        g = np.column_stack([self.rebound[:, 0] - measured * v_in * self.jacobian[:, 0, 0],
+                             -measured * v_in * self.jacobian[:, 1, 0]])
+        return np.nan_to_num(g * sd[:, None])
+
+
+def _incidence_sensitivity(experiment, trials, names, at, budget) -> _Sensitivity:
+    """The model at ``at`` for every trial and its derivatives with respect to the incidence
+    columns that carry uncertainty (or, for the speed, a shared scale), by central
+    differences, in blocks of trials that fit the memory budget."""
     var = _incidence_variance(experiment, trials)
+    need = np.any(var > 0, axis=0)
+    need[0] |= bool(np.any(np.nan_to_num(np.asarray(trials.scale_rel_sd, dtype=float)) > 0))
     n = trials.n
-    cov = np.zeros((n, 2, 2))
     base = np.column_stack([trials.incidence_speed, trials.incidence_angle,
                             trials.incidence_spin]).astype(float)
     steps = np.column_stack([1e-4 * base[:, 0], np.full(n, 1e-3), np.full(n, 1e-2)])
     theta = np.asarray(at, dtype=float)[None, :]
+    jac, rebound = np.zeros((n, 2, 3)), np.full((n, 2), np.nan)
     block = batch_rows(budget, BYTES_PER_BOUNCE)
-    for k in np.flatnonzero(np.any(var > 0, axis=0)):
-        for s in range(0, n, block):
-            rows = slice(s, s + block)
+
+    def model(cond: np.ndarray) -> np.ndarray:
+        r = Forward(experiment, names, speed=cond[:, 0], angle=cond[:, 1], spin=cond[:, 2])(theta)
+        return np.column_stack([r.speed[0], r.angle[0]])
+
+    for s in range(0, n, block):
+        rows = slice(s, s + block)
+        if need[0]:
+            rebound[rows] = model(base[rows])
+        for k in np.flatnonzero(need):
             sides = []
             for sign in (1.0, -1.0):
                 cond = base[rows].copy()
                 cond[:, k] += sign * steps[rows, k]
-                r = Forward(experiment, names, speed=cond[:, 0], angle=cond[:, 1],
-                            spin=cond[:, 2])(theta)
-                sides.append(np.column_stack([r.speed[0], r.angle[0]]))
-            jac = (sides[0] - sides[1]) / (2 * steps[rows, k, None])  # (block, 2)
-            cov[rows] += var[rows, k, None, None] * jac[:, :, None] * jac[:, None, :]
-    return np.nan_to_num(cov)
+                sides.append(model(cond))
+            jac[rows, :, k] = (sides[0] - sides[1]) / (2 * steps[rows, k, None])
+    return _Sensitivity(rebound, jac)
 
 
 def _jacobian_point(experiment, trials, names, se, noise, budget) -> np.ndarray:

@@ -65,10 +65,11 @@ def covariance(post: LogPosterior, mode: np.ndarray, width: np.ndarray) -> np.nd
         points[k, j] += sj * h[j]
     lp = post(points)
     hess = np.zeros((d, d))
-    for k in range(0, len(offsets), 4):
-        i, j = offsets[k][:2]
-        f = lp[k + 1:k + 5]
-        hess[i, j] = hess[j, i] = (f[0] - f[1] - f[2] + f[3]) / (4 * h[i] * h[j])
+    with np.errstate(invalid="ignore"):  # a point beyond a prior bound: -inf - -inf, NaN
+        for k in range(0, len(offsets), 4):
+            i, j = offsets[k][:2]
+            f = lp[k + 1:k + 5]
+            hess[i, j] = hess[j, i] = (f[0] - f[1] - f[2] + f[3]) / (4 * h[i] * h[j])
     fallback = np.diag((width / 10.0) ** 2)
     if not np.all(np.isfinite(hess)):
         return fallback

@@ -6,7 +6,8 @@ posterior.nc holds the groups ArviZ users expect: ``posterior`` (chain, draw), `
 ``log_likelihood`` (variable ``rebound``: per trial for the gaussian likelihood, one
 ``campaign`` term per draw for kde and consistent; see ``_likelihood``), ``posterior_predictive``
 (replicated rebound speed and angle at a subset of draws, whose indices are the ``draw``
-coordinate) and provenance attributes on the root. It opens with ``xarray.open_datatree`` and
+coordinate), ``adequacy`` (per trial: standardised residuals of rebound speed and angle and the
+posterior predictive p-value of the adequacy check) and provenance attributes on the root. It opens with ``xarray.open_datatree`` and
 ``arviz_base.convert_to_datatree``.
 """
 
@@ -23,6 +24,7 @@ import numpy as np
 from .._errors import InputFileError
 from .._io import json_text, write_all
 from .._version import __version__
+from ._adequacy import PER_TRIAL
 from ._grid import GridRun
 
 OBSERVED = ("rebound_speed", "rebound_angle", "incidence_speed", "incidence_angle",
@@ -63,6 +65,10 @@ def inference_data(result: Any):
         groups["log_likelihood"] = {"rebound": result.log_likelihood}
     tree = arviz_base.from_dict(groups, coords=coords, dims=dims,
                                 attrs={"/": provenance(result)})
+    if result.adequacy is not None:
+        tree["adequacy"] = xr.DataTree(xr.Dataset(
+            {k: (("trial",), np.asarray(v, dtype=float))
+             for k, v in result.adequacy.per_trial().items()}, coords={"trial": list(t.labels)}))
     rep = result.replicates
     if rep is not None:
         tree["posterior_predictive"] = xr.DataTree(arviz_base.dict_to_dataset(
@@ -119,6 +125,8 @@ def read_posterior(path: str | Path, names: tuple[str, ...]) -> dict[str, Any]:
         "replicates": None}
     if "log_likelihood" in tree:
         out["log_likelihood"] = tree["log_likelihood"]["rebound"].values
+    out["adequacy"] = ({k: tree["adequacy"][k].values for k in PER_TRIAL}
+                       if "adequacy" in tree else None)
     if "posterior_predictive" in tree:
         pp = tree["posterior_predictive"]
         out["replicates"] = (pp["draw"].values, pp["rebound_speed"].values,

@@ -11,8 +11,12 @@ import numpy as np
 from scipy import signal, stats
 
 from ._draws import ESS_LIMIT as ESS_LIMIT
+from ._likelihood import DISCREPANCY_PARAMETERS, NOISE_PARAMETERS
 from ._draws import RHAT_LIMIT as RHAT_LIMIT
 
+# noise levels and model discrepancies near their priors' lower bound mean "none needed": an
+# answer, not a prior that cuts the posterior off
+ZERO_IS_AN_ANSWER = NOISE_PARAMETERS + DISCREPANCY_PARAMETERS
 ROLLING_LIMIT = 0.95  # share of (draw, bounce) pairs rolling above which mu is not identified
 TAIL_PROBS = (0.05, 0.95)  # quantiles of the tail ESS (Vehtari et al. 2021)
 
@@ -35,10 +39,14 @@ class ParameterSummary:
     bound: dict | None  #: {"side": "lower"|"upper", "value", "level"} when not identified
     modes: tuple[float, ...]  #: locations of the modes of the marginal (several: multimodal)
     why_not_identified: str = ""
+    misfit: str = ""  #: why the data do not support an interval (a model that misfits them)
 
     def paper_form(self) -> str:
-        """``mu = 0.160 ± 0.021`` (centre and half-width of the 90 % interval), or a bound."""
+        """``mu = 0.160 ± 0.021`` (centre and half-width of the 90 % interval), or a bound; no
+        ``±`` where the model misfits the data: the posterior median and why."""
         unit = f" {self.unit}" if self.unit else ""
+        if self.misfit:
+            return (f"{self.name} ≈ {self.median:.3g}{unit} (no interval: {self.misfit})")
         if self.bound is not None:
             op = ">" if self.bound["side"] == "lower" else "<"
             return (f"{self.name} {op} {_fmt(self.bound['value'], self.sd)}{unit} at "
@@ -106,8 +114,10 @@ def marginal_modes(x: np.ndarray, low: float, high: float) -> tuple[float, ...]:
     return tuple(float(grid[p]) for p in sorted(keep, key=lambda p: -density[p]))
 
 
-def summarize_parameter(name, unit, prior, x, diag, rolling_share=None) -> ParameterSummary:
-    """Summary of one parameter's draws ``x`` (all chains flattened)."""
+def summarize_parameter(name, unit, prior, x, diag, rolling_share=None, *,
+                        misfit: str = "") -> ParameterSummary:
+    """Summary of one parameter's draws ``x`` (all chains flattened); ``misfit``: why an
+    interval is not supported (the model misfits the data), or empty."""
     lo, hi = np.quantile(x, [0.05, 0.95])
     box = prior.box(1e-6)
     why = ""
@@ -125,7 +135,8 @@ def summarize_parameter(name, unit, prior, x, diag, rolling_share=None) -> Param
                             ci90=(float(lo), float(hi)), r_hat=diag["r_hat"],
                             ess_bulk=diag["ess_bulk"], ess_tail=diag["ess_tail"],
                             identifiable=not why, bound=bound,
-                            modes=marginal_modes(x, *box), why_not_identified=why)
+                            modes=marginal_modes(x, *box), why_not_identified=why,
+                            misfit=misfit)
 
 
 def warnings_for(summaries: list[ParameterSummary], samples: np.ndarray, priors,
@@ -157,6 +168,8 @@ def _pile_warning(s: ParameterSummary, x: np.ndarray, prior, impossible_data: bo
     out = []
     for side, edge in (("lower", low), ("upper", high)):
         if not math.isfinite(edge) or not all(map(math.isfinite, prior.support)):
+            continue
+        if side == "lower" and s.name in ZERO_IS_AN_ANSWER:
             continue
         near = np.mean(np.abs(x - edge) <= 0.01 * (high - low))
         if near > 0.05:

@@ -2,18 +2,14 @@
 
 :class:`Residuals` is the figure's whole input (arrays of residuals per trial with the trials'
 labels and incidence), so that any computation of residuals can be drawn.
-:func:`posterior_residuals` computes them from a run: for a deterministic subset of posterior
-draws, each trial's rebound is simulated at the trial's own incidence and the residual
-``(observed - model) / sd`` is formed with the standard deviation of the measurement model
-(the table's standard errors, or the inferred noise levels, plus the incidence uncertainty
-pushed through the model by central differences); each trial's residual is the posterior median
-over the draws. Without standard errors or noise levels the residuals are scaled by their own
-robust spread and say so.
+:func:`posterior_residuals` takes them from a run's adequacy check
+(``bouncebayes.inference.Adequacy``), which standardises each trial by the likelihood's own
+covariance at the best-fitting posterior draw (measurement model) or by the posterior predictive
+distribution (kde, consistent); ``docs/likelihoods.md`` §10.
 """
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -26,11 +22,6 @@ from ._limits import clip_points_y, robust_limits
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-N_DRAWS = 200  # posterior draws the residuals are computed at
-NOISE = {"rebound_speed": "sigma_speed", "rebound_angle": "sigma_angle"}
-INCIDENCE = ("incidence_speed", "incidence_angle", "incidence_spin")
-STEPS = (1e-4, 1e-3, 1e-2)  # central-difference steps: relative speed, deg, rad/s
-MAD_TO_SD = 0.6745
 N_NAMED = 3  # trials named on the per-trial panel (the largest beyond 2)
 
 
@@ -67,102 +58,16 @@ class Residuals:
             object.__setattr__(self, name, arr)
 
 
-def posterior_residuals(result, *, n_draws: int = N_DRAWS) -> Residuals:
-    """Per-trial standardised residuals of a run at its posterior (see the module's text)."""
+def posterior_residuals(result) -> Residuals | None:
+    """The per-trial standardised residuals of a run's adequacy check (``result.adequacy``),
+    or ``None`` for a result without one (a run folder written before the check existed)."""
+    a = getattr(result, "adequacy", None)
+    if a is None:
+        return None
     t = result.trials
-    flat = result.draws.samples.reshape(-1, result.draws.samples.shape[-1])
-    pick = np.unique(np.linspace(0, flat.shape[0] - 1, min(n_draws, flat.shape[0])).astype(int))
-    draws = {name: flat[pick, i] for i, name in enumerate(result.names)}
-    model = _simulate_trials(result, draws)
-    sd = _measurement_sd(result, draws)
-    observed = (np.asarray(t.rebound_speed), np.asarray(t.rebound_angle))
-    if sd is None:
-        scale = "their own robust spread (the table has no standard errors)"
-        raw = [_median(obs - m, axis=0) for obs, m in zip(observed, model, strict=True)]
-        res = [r / (_median(np.abs(r - _median(r))) / MAD_TO_SD or 1.0) for r in raw]
-    else:
-        scale = "the standard deviation of the measurement model"
-        prop = _propagated_var(result, {k: np.median(v) for k, v in draws.items()})
-        res = [_median((obs - m) / np.sqrt(s**2 + p), axis=0)
-               for obs, m, s, p in zip(observed, model, sd, prop, strict=True)]
-    return Residuals(res[0], res[1], tuple(t.labels), np.asarray(t.incidence_speed),
-                     np.asarray(t.incidence_angle), scale,
+    return Residuals(a.residual_speed, a.residual_angle, tuple(t.labels),
+                     np.asarray(t.incidence_speed), np.asarray(t.incidence_angle), a.basis,
                      {"incidence_speed", "incidence_angle"} <= set(t.measured))
-
-
-def _median(x: np.ndarray, axis: int | None = None) -> np.ndarray:
-    """Median over the finite values; NaN (no warning) where a trial's every draw failed."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # "All-NaN slice": NaN is the answer
-        return np.nanmedian(x, axis=axis)
-
-
-def _model_values(result, draws: dict) -> dict:
-    """Model parameters at the draws: inferred ones from the draws, the others fixed."""
-    e = result.experiment
-    n = next(iter(draws.values())).size
-    return {name: draws[name] if name in draws else np.full(n, e.fixed_value(name))
-            for name in e.model_parameters}
-
-
-def _simulate(result, theta: dict, speed, angle, spin):
-    from ..model import SimulationWarning, simulate
-
-    e = result.experiment
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", SimulationWarning)  # failed bounces are NaN here
-        values = {k: v for k, v in theta.items() if k != "spin"}
-        b = simulate(e.ball, speed=speed, angle=angle, spin=spin, errors="flag", **values,
-                     **e.model_options)
-    ok = b.ok
-    return np.where(ok, b.rebound_speed, np.nan), np.where(ok, b.rebound_angle, np.nan)
-
-
-def _simulate_trials(result, draws: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Rebound speed and angle (draws, trials) at each trial's own incidence."""
-    t = result.trials
-    theta = {k: v[:, None] for k, v in _model_values(result, draws).items()}
-    spin = theta["spin"] if "spin" in result.names else np.asarray(t.incidence_spin)[None, :]
-    return _simulate(result, theta, np.asarray(t.incidence_speed)[None, :],
-                     np.asarray(t.incidence_angle)[None, :], spin)
-
-
-def _measurement_sd(result, draws: dict) -> tuple[np.ndarray, np.ndarray] | None:
-    """The sd of the rebound measurement, (draws, trials) or (trials,): the inferred noise levels,
-    else the table's standard errors; None when neither is available."""
-    if all(name in draws for name in NOISE.values()):
-        return draws[NOISE['rebound_speed']][:, None], draws[NOISE['rebound_angle']][:, None]
-    se = [np.asarray(result.trials.se[c], dtype=float) for c in NOISE]
-    if all(np.all(np.isfinite(s) & (s > 0)) for s in se):
-        return se[0], se[1]
-    return None
-
-
-def _propagated_var(result, at: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Variance of the modelled rebound speed and angle per trial from the incidence's own
-    uncertainty (the table's standard errors where measured, the experiment's bounce-to-bounce
-    spread where not), linearised by central differences at the parameters ``at``."""
-    t, inc = result.trials, result.experiment.incidence
-    spread = dict(zip(INCIDENCE, (inc.speed_sd, inc.angle_sd, inc.spin_sd), strict=True))
-    base = [np.asarray(t.column(c), dtype=float) for c in INCIDENCE]
-    if "spin" in result.names:  # the inferred spin replaces the table's
-        base[2] = np.full(t.n, float(at["spin"]))
-    theta = _model_values(result, {k: np.atleast_1d(v) for k, v in at.items()})
-    out = [np.zeros(t.n), np.zeros(t.n)]
-    for k, column in enumerate(INCIDENCE):
-        sd = (np.nan_to_num(np.asarray(t.se[column], dtype=float)) if column in t.measured
-              else np.full(t.n, spread[column]))
-        if (k == 2 and "spin" in result.names) or not np.any(sd > 0):
-            continue
-        step = STEPS[k] * (base[0] if k == 0 else 1.0)
-        sides = []
-        for sign in (1.0, -1.0):
-            cond = [b.copy() for b in base]
-            cond[k] = cond[k] + sign * step
-            sides.append(_simulate(result, theta, *cond))
-        for j in range(2):
-            out[j] += (sd * (sides[0][j] - sides[1][j]) / (2 * step)) ** 2
-    return np.nan_to_num(out[0]), np.nan_to_num(out[1])
 
 
 ROWS = (("speed", "rebound speed"), ("angle", "rebound angle"))
@@ -191,10 +96,16 @@ def plot_residuals(res: Residuals) -> Figure:
         _name_worst(row[0], index, r, res.labels, limits)
     handles, labels = _legend_entries(axes)
     fig.legend(handles, labels, loc="lower center", ncols=len(labels), fontsize=9)
-    fig.suptitle(f"Residuals (observed − model) / sd per trial, at the posterior (median over "
-                 f"draws); divided by {res.scale}")
+    fig.suptitle(_wrapped(f"Standardised residuals (observed − model) / sd per trial; sd: "
+                          f"{res.scale}"))
     place_panels(fig, axes, legend_rows=1)
     return fig
+
+
+def _wrapped(text: str, width: int = 110) -> str:
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width))
 
 
 BANDS = ((3.0, "0.93", "within ±3 (99.7 % expected)"), (2.0, "0.82", "within ±2 (95 % expected)"))

@@ -6,6 +6,10 @@ from ._batch import batch_run as batch_run
 from ._batch import batch_tasks as batch_tasks
 from ._batch import read_manifest as read_manifest
 from ._batch import run_batch as run_batch
+from ._crossval import SCENARIOS as SCENARIOS
+from ._crossval import discrepancy_campaign as discrepancy_campaign
+from ._crossval import kfold_coverage as kfold_coverage
+from ._crossval import scenario_campaign as scenario_campaign
 from ._sbc import SBC_DEFAULTS as SBC_DEFAULTS
 from ._sbc import rank_test as rank_test
 from ._sbc import run_sbc as run_sbc
@@ -19,6 +23,6 @@ from ._tasks import run_tasks as run_tasks
 from ._tasks import task_seed as task_seed
 from ._tasks import worker_environment as worker_environment
 
-__all__ = ["LOCAL", "SBC_DEFAULTS", "SERIAL", "Outcome", "Task", "batch_run", "batch_tasks",
-           "rank_test", "read_manifest", "run_batch", "run_sbc", "run_tasks", "sbc_campaign",
-           "sbc_experiment", "task_seed", "worker_environment"]
+__all__ = ["LOCAL", "SBC_DEFAULTS", "SCENARIOS", "SERIAL", "Outcome", "Task", "batch_run",
+           "batch_tasks", "discrepancy_campaign", "kfold_coverage", "rank_test", "read_manifest", "run_batch", "run_sbc", "run_tasks", "sbc_campaign",
+           "sbc_experiment", "scenario_campaign", "task_seed", "worker_environment"]

@@ -106,7 +106,7 @@ def batch_run(run: dict[str, Any], seed: int) -> dict[str, Any]:
     lines: list[str] = []
     sampler = run.get("sampler", "mh")
     outcome = pipeline_run(run["experiment"], run["data"], run["out"],
-                           likelihood=run.get("likelihood", "gaussian"), sampler=sampler,
+                           likelihood=run.get("likelihood"), sampler=sampler,
                            seed=seed, config=sampler_config(sampler, draws=run.get("draws")),
                            log=lines.append)
     return {"out": run["out"], "seed": seed, "verdict": outcome.verdict,

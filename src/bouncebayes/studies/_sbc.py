@@ -42,7 +42,7 @@ def sbc_campaign(seed: int, settings: dict) -> dict:
     """One campaign of the study from its own seed: truth from the prior, synthesis, grid
     posterior; the rank of the truth among the draws and the 90 % coverage per parameter."""
     from ..data import synthesize
-    from ..inference import GridConfig, infer
+    from ..inference import GridConfig, adequacy_failures as failures, infer
 
     rng = np.random.default_rng(seed)
     prior = sbc_experiment(0.1, 1.0, settings).priors
@@ -52,9 +52,13 @@ def sbc_campaign(seed: int, settings: dict) -> dict:
     c = synthesize(exp, seed=synth_seed, n=settings["n_trials"])
     config = GridConfig(draws=settings["draws"], points=settings["grid_points"])
     result = infer(exp, c.trials, likelihood="gaussian", sampler="grid", seed=infer_seed,
-                   config=config)
+                   config=config, noise="given", discrepancy="none")
+    a = result.adequacy
     out: dict[str, Any] = {"truth": dict(zip(NAMES, theta, strict=True)),
                            "share_rolling_data": c.truth["share_rolling"]}
+    if a is not None:  # every fresh inference has it; a reloaded one may not
+        out["adequacy"] = {"adequate": a.adequate, "chi2_p_value": a.p_value,
+                           "worst_trial_p_value": a.worst_p_value, "failed": failures(a)}
     for i, name in enumerate(NAMES):
         draws = result.samples(name)
         p = result.parameters[result.names.index(name)]
@@ -118,6 +122,26 @@ def run_sbc(campaigns: int | None = None, *, seed: int | None = None,
     return _summary(settings, rows, outcome)
 
 
+def _false_alarms(rows: list[dict]) -> dict | None:
+    """How often the adequacy check flags these well-specified campaigns, against its level
+    (with the one-sided 99 % binomial upper bound of the level's count)."""
+    from scipy import stats
+
+    from ..inference import ADEQUACY_LEVEL
+
+    flagged = [r for r in rows if "adequacy" in r]
+    if not flagged:
+        return None
+    alarms = sum(not r["adequacy"]["adequate"] for r in flagged)
+    n = len(flagged)
+    return {"campaigns": n, "alarms": alarms, "false_alarm_rate": alarms / n,
+            "level": ADEQUACY_LEVEL,
+            "at_most_level_within_binomial": bool(
+                alarms <= stats.binom.ppf(0.99, n, ADEQUACY_LEVEL)),
+            "by_check": {k: sum(k in r["adequacy"]["failed"] for r in flagged)
+                         for k in ("residuals", "trials", "distributions")}}
+
+
 def _summary(settings: dict, rows: list[dict], outcome) -> dict:
     from scipy import stats
 
@@ -140,6 +164,7 @@ def _summary(settings: dict, rows: list[dict], outcome) -> dict:
         "bouncebayes_version": __version__, "python": platform.python_version(),
         "numpy": np.__version__,
     }
+    result["adequacy"] = _false_alarms(rows)
     for name in NAMES:
         if not n:
             break

@@ -2,30 +2,28 @@
 
 For a seeded subset of draws this simulates the bounce at the nominal incidence (rebound,
 contact time, peak forces, spin), time histories for a smaller subset (trajectories and force
-realisations, the paper's Figs. 6 and 8), and the posterior predictive distribution of the
-measured rebounds, which it compares with the data (two-sample Kolmogorov–Smirnov and Hellinger
-distance) and judges in words. Failed simulations are counted, never fatal.
+realisations, the paper's Figs. 6 and 8). The posterior predictive distribution of the measured
+rebounds is the one the inference replicated, compared with the data (two-sample
+Kolmogorov–Smirnov and Hellinger distance) under the inference's adequacy verdict. Failed
+simulations are counted, never fatal.
 """
 
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
-from scipy import integrate, stats
 
-from ._io import write_json, write_with
-from .data import Experiment, Trials
-from .inference import InferenceResult, marginal_modes
-from .model import BounceFailed, Bounces, simulate_history
+from .._io import write_json, write_with
+from ..data import Experiment
+from ..inference import InferenceResult, distribution_check, marginal_modes
+from ..model import BounceFailed, Bounces, simulate_history
 
-N_DRAWS = 2000  # draws propagated (bounce summaries, predictive)
+N_DRAWS = 2000  # draws propagated (bounce summaries)
 N_HISTORIES = 100  # draws whose time histories are kept (figures)
-KS_ALPHA = 0.01
+PREDICTIVE_MAX = 200_000  # posterior predictive rebounds kept for the figures
 
 
 @dataclass(frozen=True)
@@ -71,7 +69,9 @@ class Propagation:
             "posterior_predictive_match": self.match, "notes": self.notes}
 
 
-def _draw_subset(result: InferenceResult, n: int, rng) -> dict:
+def draw_subset(result: InferenceResult, n: int, rng) -> dict:
+    """A seeded subset of ``n`` draws: every model parameter (inferred from the draws, the
+    others at their fixed values) and every inferred parameter, arrays of one length."""
     flat = result.draws.samples.reshape(-1, result.draws.samples.shape[-1])
     pick = np.sort(rng.choice(flat.shape[0], size=min(n, flat.shape[0]), replace=False))
     theta = {}
@@ -94,20 +94,19 @@ def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int 
               n_histories: int = N_HISTORIES) -> Propagation:
     """Propagate a seeded subset of the posterior draws (seed: the inference's by default)."""
     seed = result.seed if seed is None else int(seed)
-    rng_pick, rng_predictive = np.random.default_rng([seed, 1]).spawn(2)
-    e, trials = result.experiment, result.trials
-    theta = _draw_subset(result, n_draws, rng_pick)
+    rng_pick, _ = np.random.default_rng([seed, 1]).spawn(2)  # the second: once the predictive's
+    e = result.experiment
+    theta = draw_subset(result, n_draws, rng_pick)
     inc = e.incidence
     bounces = _simulate(e, theta, speed=inc.speed, angle=inc.angle, spin=theta["spin"])
-    speed, angle, pred_failed = _predictive(result, theta, rng_predictive)
+    speed, angle = predictive(result)
     histories, hist_failed = _histories(e, theta, n_histories)
-    n_failed = bounces.n_failed + pred_failed + hist_failed
+    n_failed = bounces.n_failed + hist_failed
     failures = "; ".join(x for x in (bounces.failure_summary(),
-                                     f"{pred_failed} predictive bounces" if pred_failed else "",
                                      f"{hist_failed} histories" if hist_failed else "") if x)
     tc = bounces.contact_time[bounces.ok]
     modes = marginal_modes(tc, float(tc.min()), float(tc.max())) if tc.size else ()
-    match = compare(trials, speed, angle)
+    match = predictive_match(result, speed, angle)
     notes = []
     if result.likelihood != "gaussian":
         notes.append("the predictive distribution is the rebound at the nominal incidence "
@@ -116,27 +115,37 @@ def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int 
                        failures, seed, notes)
 
 
-def _predictive(result: InferenceResult, theta: dict, rng) -> tuple[np.ndarray, np.ndarray, int]:
-    """Posterior predictive rebounds. Gaussian: each draw at a random trial's incidence plus
-    measurement noise (the table's standard errors or the inferred levels). kde / consistent:
-    the rebound at the nominal incidence (what those likelihoods compare with the data)."""
-    e, t = result.experiment, result.trials
-    n = theta["mu"].size
-    if result.likelihood != "gaussian":
-        inc = e.incidence
-        b = _simulate(e, theta, speed=inc.speed, angle=inc.angle, spin=theta["spin"])
-        return b.rebound_speed[b.ok], b.rebound_angle[b.ok], b.n_failed
-    k = rng.integers(t.n, size=n)
-    b = _simulate(e, theta, speed=t.incidence_speed[k], angle=t.incidence_angle[k],
-                  spin=t.incidence_spin[k] if "spin" not in result.names else theta["spin"])
-    if "sigma_speed" in theta:
-        sd_speed, sd_angle = theta["sigma_speed"], theta["sigma_angle"]
+def predictive(result: InferenceResult, n_max: int = PREDICTIVE_MAX) -> tuple[np.ndarray,
+                                                                               np.ndarray]:
+    """The posterior predictive rebounds the inference replicated (posterior.nc's
+    ``posterior_predictive`` group), pooled over draws and trials, evenly thinned to at most
+    ``n_max`` values. Gaussian: each trial's rebound at its own incidence plus its measurement
+    noise (and discrepancy); kde / consistent: the rebound at the nominal incidence (what those
+    likelihoods compare with the data, as in the paper's Fig. 7)."""
+    rep = result.replicates
+    if rep is None:
+        return np.empty(0), np.empty(0)
+    speed, angle = rep.rebound_speed.ravel(), rep.rebound_angle.ravel()
+    ok = np.isfinite(speed) & np.isfinite(angle)
+    speed, angle = speed[ok], angle[ok]
+    step = max(1, -(-speed.size // n_max))
+    return speed[::step], angle[::step]
+
+
+def predictive_match(result: InferenceResult, speed: np.ndarray, angle: np.ndarray) -> dict:
+    """The distributions of the predicted and observed rebounds (KS, Hellinger), with the
+    inference's adequacy verdict (which also judges the residuals, trial by trial)."""
+    t = result.trials
+    out = distribution_check({"rebound_speed": t.rebound_speed, "rebound_angle": t.rebound_angle},
+                             {"rebound_speed": speed, "rebound_angle": angle})
+    a = result.adequacy
+    if a is None:
+        out["verdict"] = ("The model's adequacy was not checked (a run folder written before "
+                          "the check existed): rerun the inference to judge it.")
+        out["reproduces_data"] = None
     else:
-        sd_speed = np.nan_to_num(t.se["rebound_speed"][k])
-        sd_angle = np.nan_to_num(t.se["rebound_angle"][k])
-    speed = b.rebound_speed + rng.normal(0.0, 1.0, n) * sd_speed
-    angle = b.rebound_angle + rng.normal(0.0, 1.0, n) * sd_angle
-    return speed[b.ok], angle[b.ok], b.n_failed
+        out["verdict"], out["reproduces_data"] = a.verdict, a.adequate
+    return out
 
 
 def _histories(e: Experiment, theta: dict, n: int) -> tuple[dict, int]:
@@ -155,50 +164,6 @@ def _histories(e: Experiment, theta: dict, n: int) -> tuple[dict, int]:
         for k in keys:
             out[k].append(getattr(h, k))
     return {k: np.array(v) for k, v in out.items()}, failed
-
-
-def hellinger(a: np.ndarray, b: np.ndarray) -> float:
-    """Hellinger distance between Gaussian KDEs (Scott bandwidth) of two samples, by quadrature
-    on a grid spanning both: 0 for identical, 1 for disjoint distributions."""
-    lo = min(a.min(), b.min())
-    hi = max(a.max(), b.max())
-    pad = 0.25 * (hi - lo) + 1e-12
-    x = np.linspace(lo - pad, hi + pad, 2048)
-    fa, fb = stats.gaussian_kde(a)(x), stats.gaussian_kde(b)(x)
-    bc = integrate.trapezoid(np.sqrt(fa * fb), x)
-    return float(math.sqrt(max(0.0, 1.0 - min(bc, 1.0))))
-
-
-def compare(trials: Trials, speed: np.ndarray, angle: np.ndarray) -> dict:
-    """Posterior predictive vs observed rebounds, per variable, with a verdict in words."""
-    out: dict[str, Any] = {}
-    words = []
-    for name, pred, obs, unit in (("rebound_speed", speed, trials.rebound_speed, "m/s"),
-                                  ("rebound_angle", angle, trials.rebound_angle, "deg")):
-        obs = np.asarray(obs)
-        if pred.size < 10 or obs.size < 3:
-            out[name] = {"ks_statistic": None, "ks_p_value": None, "hellinger": None}
-            continue
-        ks = stats.ks_2samp(pred, obs)
-        out[name] = {"ks_statistic": float(ks.statistic), "ks_p_value": float(ks.pvalue),
-                     "hellinger": hellinger(pred, obs),
-                     "predicted_mean": float(np.mean(pred)), "observed_mean": float(np.mean(obs)),
-                     "predicted_sd": float(np.std(pred, ddof=1)),
-                     "observed_sd": float(np.std(obs, ddof=1)), "unit": unit}
-        if ks.pvalue < KS_ALPHA:
-            words.append(f"{name.replace('_', ' ')} (KS p = {ks.pvalue:.2g}: predicted "
-                         f"{np.mean(pred):.4g} +- {np.std(pred):.2g} {unit}, observed "
-                         f"{np.mean(obs):.4g} +- {np.std(obs):.2g} {unit})")
-    if words:
-        verdict = ("The model does not reproduce the measured " + " and ".join(words)
-                   + ". Consider another likelihood, normal law or the incidence values.")
-    else:
-        verdict = ("The model reproduces the measured rebound speed and angle: the posterior "
-                   f"predictive and observed distributions are compatible (two-sample KS "
-                   f"p >= {KS_ALPHA} for both).")
-    out["verdict"] = verdict
-    out["reproduces_data"] = not words
-    return out
 
 
 def write_propagation(prop: Propagation, out: str | Path) -> dict[str, Path]:
