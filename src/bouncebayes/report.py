@@ -254,9 +254,17 @@ def figure_makers(result: InferenceResult, prop, folder: str | Path,
         "predictive": lambda: plots.plot_predictive(prop, density),
         "forces": lambda: plots.plot_forces(prop),
         "contact_time": lambda: plots.plot_contact_time(prop),
-        "residuals": lambda: plots.plot_residuals(plots.posterior_residuals(result)),
+        "residuals": lambda: _residual_figure(result),
         "diagnostics": lambda: plots.plot_diagnostics(result),
     }
+
+
+def _residual_figure(result: InferenceResult):
+    """The adequacy check's residuals, where the run has one."""
+    from . import plots
+
+    res = plots.posterior_residuals(result)
+    return None if res is None else plots.plot_residuals(res)
 
 
 def make_figures(result: InferenceResult, prop, folder: str | Path,

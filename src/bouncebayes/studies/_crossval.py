@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-SCENARIOS = {
+SCENARIOS: dict[str, dict[str, Any]] = {
     "well-specified": {},
     "another normal law": {"model__normal": "hunt-crossley", "contact__eta": 0.3},
     "spin scatter at 20 deg": {"incidence__angle_deg": 20.0, "incidence__spin_sd_rad_s": 100.0},
@@ -71,7 +71,7 @@ def kfold_coverage(experiment, trials, *, folds: int = 5, seed: int = 0,
 
     rng = np.random.default_rng(seed)
     fold = rng.permutation(trials.n) % folds
-    inside = {"rebound_speed": [], "rebound_angle": []}
+    inside: dict[str, list[bool]] = {"rebound_speed": [], "rebound_angle": []}
     alarms = 0
     for k in range(folds):
         train = subset(experiment, trials, np.flatnonzero(fold != k))
