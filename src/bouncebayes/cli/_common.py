@@ -188,6 +188,7 @@ def flag_names(text: str, flags: frozenset[str] = frozenset()) -> str:
     """Library messages name arguments (`` `burn_in` ``); the command line names flags: the
     sampler settings, and any ``a_b`` (or ``a``) whose flag ``--a-b`` is among ``flags``."""
     text = _FLAG_NAME.sub(lambda m: f"`{SAMPLER_FLAGS[m[1]]}`", text)
+    text = _CONFIG_NAME.sub("", text)  # "raise `--draws` of MHConfig": the flag says it
 
     def flag(m: re.Match) -> str:
         option = "--" + m[1].replace("_", "-")
@@ -196,6 +197,7 @@ def flag_names(text: str, flags: frozenset[str] = frozenset()) -> str:
     return _SNAKE_NAME.sub(flag, text)
 
 
+_CONFIG_NAME = re.compile(r" of (?:MH|Ensemble|Grid)Config\b")
 _SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)*)`")
 
 

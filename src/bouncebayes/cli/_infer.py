@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     with staged_output(args.out, "entries", owned=OUTPUTS) as stage:
         paths = write_outputs(result, stage)
         stamp_tree(stage, stamp)
-    print(flag_names(format_table(result)))
+    print(flag_names(format_table(result), args.flags))
     print("\n".join(f"{name}: {args.out / Path(path).name}" for name, path in paths.items()))
     return 0
 

@@ -73,8 +73,8 @@ def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | N
                   config=sampler_config(args), progress=show_progress(args), log=log, truth=truth,
                   fps=getattr(args, "fps", None), argv=args.argv,
                   figure_formats=args.figure_formats, **inference_options(args))
-    print(flag_names(outcome.table))
-    print(outcome.verdict)
+    print(flag_names(outcome.table, args.flags))
+    print(flag_names(outcome.verdict, args.flags))
     times = ", ".join(f"{k} {v:.1f}" for k, v in outcome.stage_seconds.items())
     total = sum(outcome.stage_seconds.values())
     print(f"\nreport: {outcome.report}  (all results in {outcome.folder}; {total:.1f} s: "

@@ -41,7 +41,6 @@ N_CHECKS = 3  #: residual chi-square, worst trial, distributions (each at ALPHA 
 PPP_DRAWS = 400  #: posterior draws the per-trial p-values average over (fewer for big tables)
 PPP_BOUNCES = 2_000_000  #: bounces simulated for the per-trial p-values at most
 N_WORST = 5  #: trials named in the verdict
-TREND_P = 1e-3  #: p-value of a rank correlation of residuals with the incidence worth a hint
 PER_TRIAL = ("residual_speed", "residual_angle", "ppp")  #: posterior.nc's ``adequacy`` group
 PREDICTIVE_SAMPLE = 50_000  #: predictive values the distribution check compares at most
 HELLINGER_SAMPLE = 20_000  #: values of each sample the Hellinger distance's KDEs use at most

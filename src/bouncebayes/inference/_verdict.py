@@ -12,6 +12,7 @@ if TYPE_CHECKING:
     from ._adequacy import Adequacy
 
 NAMES = {"rebound_speed": "rebound speed", "rebound_angle": "rebound angle"}
+TREND_P = 1e-3  #: p-value of a rank correlation of residuals with the incidence worth a remedy
 OUTLIER_SHARE = 0.5  #: share of the chi-square from the worst tenth of trials: outliers
 
 
@@ -103,14 +104,15 @@ def _remedies(a: Adequacy) -> list[str]:
     else:
         out.append("rerun with `discrepancy` = normal (an inferred model error per observable, "
                    "added in quadrature to the stated errors; the intervals then include it)")
-    for key, t in sorted(a.trends.items()):
-        if t["p_value"] < 1e-3:
-            observable, column = key.split("_vs_")
-            out.append(f"the {NAMES[observable]} residuals trend with the "
-                       f"{column.replace('_', ' ')} (Spearman rho {t['spearman_rho']:+.2f}): "
-                       f"the contact law misses how the rebound changes with it (another "
-                       f"normal law, tangential compliance)")
+    trends = [f"{NAMES[key.split('_vs_')[0]]} with {key.split('_vs_')[1].replace('_', ' ')} "
+              f"(Spearman rho {t['spearman_rho']:+.2f})"
+              for key, t in sorted(a.trends.items()) if t["p_value"] < TREND_P]
+    if trends:
+        out.append("the residuals trend with the incidence (" + ", ".join(trends) + "): the "
+                   "contact law misses how the rebound changes with it; try another normal law "
+                   "or tangential compliance in [model]")
     out.append("check that the standard errors of the table are not understated and that the "
-               "incident spin is right (an incidence_spin column); consider another normal law "
-               "or tangential compliance in [model]")
+               "incident spin is right (an incidence_spin column)"
+               + ("" if trends else "; consider another normal law or tangential compliance "
+                                    "in [model]"))
     return out
