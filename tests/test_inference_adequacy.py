@@ -240,3 +240,24 @@ def test_kfold_predictions_cover_with_a_discrepancy_and_not_without():
     assert 0.85 <= np.mean(with_term) <= 0.95
     assert np.mean(without) < 0.6
     assert flagged == 15
+
+
+def test_a_measured_spin_reaches_every_likelihood():
+    """A table's incidence_spin column: each trial's own in the measurement model, its mean at
+    the nominal incidence of kde and consistent (the experiment file's spin is 0)."""
+    from bouncebayes.data import load_trials
+    from bouncebayes.inference._likelihood import make_likelihood
+
+    exp = parse_experiment(copy.deepcopy(DOC))
+    t = load_trials(DEMO.trials, exp)
+    spin = np.linspace(100.0, 200.0, t.n)
+    trials = make_trials(exp, rebound_speed=t.rebound_speed, rebound_angle=t.rebound_angle,
+                         incidence_speed=t.incidence_speed, incidence_angle=t.incidence_angle,
+                         incidence_spin=spin,
+                         se={k: v for k, v in t.se.items() if np.all(np.isfinite(v))})
+    rng = np.random.default_rng(0)
+    for name in ("kde", "consistent"):
+        like = make_likelihood(name, exp, trials, ("mu", "eta"), rng=rng)
+        assert float(np.ravel(like.forward.model.values["spin"])[0]) == pytest.approx(150.0)
+    gauss = make_likelihood("gaussian", exp, trials, ("mu", "eta"), rng=rng)
+    np.testing.assert_array_equal(np.ravel(gauss.forward.model.values["spin"]), spin)

@@ -4,7 +4,8 @@ The study lives in ``benchmarks/sbc.py`` (also runnable on its own); this test r
 defaults (300 campaigns drawn from the prior, grid quadrature, 999 posterior draws each), writes
 ``benchmarks/results/sbc.json`` and checks the two calibration criteria of Talts et al. (2018):
 ranks of the truth uniform (chi-square on 20 bins, p > 0.01) and 90 % intervals covering the
-truth at a rate inside the central 99 % binomial interval around 0.9.
+truth at a rate inside the central 99 % binomial interval around 0.9, and the adequacy check
+raising at most its nominal 1 % of false alarms on these well-specified campaigns.
 """
 
 import sys
@@ -43,3 +44,8 @@ def test_gaussian_likelihood_is_calibrated():
         assert sum(p["rank_histogram"]) == n
         assert p["chi2_p_value"] > 0.01, (name, p["rank_histogram"])
         assert lo <= p["coverage90"] <= hi, (name, p["coverage90"], (lo, hi))
+    # the adequacy check on these well-specified campaigns: false alarms at most its nominal
+    # level (1 %), within the one-sided 99 % binomial bound of that level's count
+    adequacy = result["adequacy"]
+    assert adequacy["campaigns"] == n
+    assert adequacy["at_most_level_within_binomial"], adequacy

@@ -91,10 +91,14 @@ class Pointwise(NamedTuple):
     rebounds: Any  #: ``Forward`` output, arrays (n, n_conditions)
 
 
-def _nominal(experiment: Experiment):
-    """The experiment's nominal incidence as one condition (speed, angle, spin arrays)."""
+def _nominal(experiment: Experiment, trials: Trials):
+    """The nominal incidence as one condition (speed, angle, spin arrays): the experiment's,
+    with the spin the table measured (its mean) where it has an ``incidence_spin`` column: a
+    spin measured elsewhere is information the experiment file's default of 0 is not."""
     inc = experiment.incidence
-    return np.array([inc.speed]), np.array([inc.angle]), np.array([inc.spin])
+    spin = (float(np.mean(trials.incidence_spin)) if "incidence_spin" in trials.measured
+            else inc.spin)
+    return np.array([inc.speed]), np.array([inc.angle]), np.array([spin])
 
 
 @dataclass(frozen=True)
@@ -394,7 +398,7 @@ def make_likelihood(name: str, experiment: Experiment, trials: Trials, names: tu
                              f"{name} likelihood compares distributions: use "
                              f"discrepancy='none'")
         _check_spread(trials, name)
-        speed, angle, spin = _nominal(experiment)
+        speed, angle, spin = _nominal(experiment, trials)
         forward = Forward(experiment, names, speed=speed, angle=angle, spin=spin)
         observed = rebound_density(trials.rebound_speed, trials.rebound_angle,
                                    kind=density_kind, bandwidth=bandwidth)
