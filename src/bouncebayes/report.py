@@ -315,7 +315,9 @@ def _result_section(result: InferenceResult, truth: dict | None) -> list[str]:
               for p in result.parameters]
     header = ["parameter", "unit", "mean", "sd", "90 % interval", "result", "R-hat",
               "ESS (bulk)", "identified"] + (["true value"] if truth else [])
-    warns = "".join(f"<li>{html.escape(w)}</li>" for w in result.warnings) or \
+    verdict = result.adequacy.verdict if result.adequacy is not None else None
+    warns = "".join(f"<li>{html.escape(w)}</li>" for w in result.warnings
+                    if w != verdict) or \
         "<li>none: chains agree (R-hat &le; 1.01), enough effective draws (ESS &ge; 400), one " \
         "mode, nothing piled against a prior bound</li>"
     r = result.regimes
