@@ -35,6 +35,7 @@ from ._likelihood import DISCREPANCIES as DISCREPANCIES
 from ._likelihood import DISCREPANCY_MEANINGS as DISCREPANCY_MEANINGS
 from ._likelihood import LIKELIHOODS as LIKELIHOODS
 from ._likelihood import STUDENT_T_DOF as STUDENT_T_DOF
+from ._likelihood import incidence_variance as incidence_variance
 from ._likelihood import MEANINGS as MEANINGS
 from ._likelihood import noise_priors as noise_priors
 from ._memory import BYTES_PER_BOUNCE as BYTES_PER_BOUNCE
@@ -54,7 +55,7 @@ from ._summary import marginal_modes as marginal_modes
 
 __all__ = [
     "ADEQUACY_LEVEL", "Adequacy", "DISCREPANCIES", "STUDENT_T_DOF", "DISCREPANCY_MEANINGS", "adequacy_failures", "assess_adequacy",
-    "distribution_check", "hellinger",
+    "distribution_check", "hellinger", "incidence_variance",
     "BYTES_PER_BOUNCE", "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_CONFIGS", "SAMPLER_MEANINGS", "Draws",
     "EnsembleConfig", "EnsembleInfo", "EnsembleRun", "EnsembleState", "Forward", "GridConfig",
     "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",

@@ -15,8 +15,8 @@ from .._version import __version__
 from ..data import Experiment, Trials
 from ._adequacy import Adequacy, assess
 from ._checks import data_warnings
-from ._config import (GRID_POINTS, SAMPLERS, AnyConfig, config_for, sampler_config,
-                      sampler_of)
+from ._config import (GRID_POINTS, SAMPLERS, AnyConfig, MHConfig, config_for,
+                      sampler_config, sampler_of)
 from ._draws import Draws
 from ._ensemble import EnsembleRun, sample_ensemble
 from ._grid import GridRun, check_grid_memory, grid_bytes, sample_grid
@@ -27,7 +27,7 @@ from ._memory import (BYTES_PER_BOUNCE, BYTES_PER_TRIAL, DEFAULT_MEMORY_BUDGET, 
 from ._mh import MHRun, sample_mh
 from ._outputs import read_posterior
 from ._pass import PosteriorPass, Replicates, posterior_pass
-from ._posterior import LogPosterior
+from ._posterior import LogPosterior, SamplingSpace, sampling_space
 from ._summary import ParameterSummary, diagnostics, summarize_parameter, warnings_for
 
 SAMPLER_MEANINGS = {
@@ -36,6 +36,7 @@ SAMPLER_MEANINGS = {
     "grid": "exact quadrature on a grid over the prior box (no Monte Carlo error beyond the "
             "grid spacing)",
 }
+REFIT_BURN_IN = 2000  #: mh burn-in of the refit with a discrepancy (discrepancy="auto")
 MISFIT = "the model misfits the data; see the adequacy verdict"
 RUN_TYPES: dict[str, Any] = {"mh": MHRun, "ensemble": EnsembleRun, "grid": GridRun}
 
@@ -170,7 +171,10 @@ def _infer_once(experiment: Experiment, trials: Trials, likelihood: str, sampler
                            noise=noise, discrepancy=discrepancy, memory_budget=work)
     post = _log_posterior(like, experiment, names, work)
     run = {"mh": sample_mh, "ensemble": sample_ensemble, "grid": sample_grid}[sampler]
-    draws = run(post, config, rng_sampler, progress)  # type: ignore[operator]
+    space = post if sampler == "grid" else sampling_space(post)  # scales as their logarithm
+    draws = run(space, config, rng_sampler, progress)  # type: ignore[operator]
+    if isinstance(space, SamplingSpace):
+        draws = space.natural(draws)
     checked = posterior_pass(like, draws, rng_pass, work)
     adequacy = assess(like, draws.samples, draws.lp, checked.replicates, trials, work)
     params, warns = _summarize(post, draws, checked, notes, likelihood, trials, adequacy)
@@ -187,6 +191,8 @@ def _refit_with_discrepancy(first: InferenceResult, noise: str,
     sampler, config = first.sampler, first.config
     if sampler == "grid" and len(first.names) + 2 > max(GRID_POINTS):
         sampler, config = "mh", sampler_config("mh", draws=max(first.config.draws, 4000))
+    if isinstance(config, MHConfig):  # two more parameters, started further from their mode
+        config = dataclasses.replace(config, burn_in=max(config.burn_in, REFIT_BURN_IN))
     second = _infer_once(first.experiment, first.trials, first.likelihood, sampler, first.seed,
                          config, noise, "normal", progress, first.memory_budget)
     a = first.adequacy

@@ -67,6 +67,10 @@ DISCREPANCY_MEANINGS = {
                  "Student-t residuals (4 degrees of freedom) that let outlying trials count "
                  "less",
 }
+#: the discrepancy prior's lower end in median standard errors: below about a fifth of the noise
+#: 55 bounces cannot tell a model error from none, and a longer flat stretch of the posterior
+#: in log(tau) only slows the samplers' random walk
+DISCREPANCY_FLOOR = 0.02
 STUDENT_T_DOF = 4.0  #: degrees of freedom of the heavy-tailed residuals (docs/likelihoods.md)
 HERMITE_NODES = 20  #: Gauss-Hermite nodes over the shared scale with Student-t residuals
 NOISE_PARAMETERS = ("sigma_speed", "sigma_angle")
@@ -410,15 +414,15 @@ def make_likelihood(name: str, experiment: Experiment, trials: Trials, names: tu
 
 
 def discrepancy_priors(trials: Trials) -> dict[str, Prior]:
-    """Log-uniform priors of the model discrepancy per observable: from 1e-3 times the median
-    standard error (a model error far below the noise, indistinguishable from none) to the
-    larger of 10 times the observations' spread and their mean size (a model error as large as
-    the rebound itself)."""
+    """Log-uniform priors of the model discrepancy per observable: from DISCREPANCY_FLOOR times
+    the median standard error (a model error far below the noise, indistinguishable from none)
+    to the larger of 10 times the observations' spread and their mean size (a model error as
+    large as the rebound itself)."""
     out: dict[str, Prior] = {}
     for name, column in zip(DISCREPANCY_PARAMETERS, ("rebound_speed", "rebound_angle"),
                             strict=True):
         x, se = trials.column(column), np.asarray(trials.se[column], dtype=float)
-        floor = 1e-3 * float(np.median(se))
+        floor = DISCREPANCY_FLOOR * float(np.median(se))
         top = max(10.0 * (float(np.std(x, ddof=1)) if x.size > 1 else 0.0),
                   float(np.mean(np.abs(x))), 1e3 * floor)
         out[name] = LogUniform(floor, top)
@@ -485,14 +489,14 @@ def _gaussian(experiment: Experiment, trials: Trials, names, noise: str, discrep
     return GaussianLikelihood(forward, np.asarray(trials.rebound_speed),
                               np.asarray(trials.rebound_angle), noise,
                               se**2 if noise == "given" else np.zeros_like(se),
-                              sens.propagated(_incidence_variance(experiment, trials)),
+                              sens.propagated(incidence_variance(experiment, trials)),
                               dict(zip(names, at.tolist(), strict=True)), trials.labels, extra,
                               np.column_stack([trials.incidence_speed, trials.incidence_angle,
                                                trials.incidence_spin]).astype(float),
                               discrepancy=discrepancy, scale=sens.shared_scale(trials))
 
 
-def _incidence_variance(experiment: Experiment, trials: Trials) -> np.ndarray:
+def incidence_variance(experiment: Experiment, trials: Trials) -> np.ndarray:
     """(n, 3) variances of incident speed, angle and spin: the table's standard errors where a
     column was measured, the experiment's bounce-to-bounce spread where it was not."""
     inc = experiment.incidence
@@ -543,7 +547,7 @@ def _incidence_sensitivity(experiment, trials, names, at, budget) -> _Sensitivit
     """The model at ``at`` for every trial and its derivatives with respect to the incidence
     columns that carry uncertainty (or, for the speed, a shared scale), by central
     differences, in blocks of trials that fit the memory budget."""
-    var = _incidence_variance(experiment, trials)
+    var = incidence_variance(experiment, trials)
     need = np.any(var > 0, axis=0)
     need[0] |= bool(np.any(np.nan_to_num(np.asarray(trials.scale_rel_sd, dtype=float)) > 0))
     n = trials.n

@@ -194,6 +194,8 @@ def compiled_posterior(post: LogPosterior) -> tuple | None:
     compiled rebound kernel; ``None`` for any other posterior (shaped priors, other
     likelihoods, inferred noise, a wrapped forward model, a law without tables)."""
     like = post.likelihood
+    if not isinstance(post, LogPosterior):  # sampled in other coordinates (SamplingSpace)
+        return None
     if (post._shaped or not isinstance(like, GaussianLikelihood) or not like.simple
             or type(like.forward) is not Forward
             or post.dim != len(like.forward.names)):

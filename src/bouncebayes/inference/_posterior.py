@@ -91,3 +91,92 @@ class LogPosterior:
     def box(self, mass: float = 1e-6) -> np.ndarray:
         """(d, 2): the prior supports, cut to finite quantiles where unbounded."""
         return np.array([p.box(mass) for p in self.priors])
+
+
+@dataclass(frozen=True)
+class SamplingSpace:
+    """The posterior in the coordinates the random-walk samplers (mh, ensemble) move in: a
+    parameter with a log-uniform prior (a scale: an inferred noise level or model discrepancy)
+    as its natural logarithm, in which its prior is flat and a posterior reaching towards zero
+    has no funnel for a random walk to get stuck in. ``post`` is the posterior in natural
+    units; :meth:`natural` maps the samplers' draws back (log densities included)."""
+
+    post: LogPosterior
+    logged: tuple[int, ...]
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.post.names
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return self.post.units
+
+    @property
+    def priors(self) -> tuple[Prior, ...]:
+        return self.post.priors
+
+    @property
+    def likelihood(self) -> Any:
+        return self.post.likelihood
+
+    @property
+    def batch_rows(self) -> int:
+        return self.post.batch_rows
+
+    @property
+    def dim(self) -> int:
+        return self.post.dim
+
+    def to_natural(self, u: np.ndarray) -> np.ndarray:
+        """Rows in natural units from rows in sampling coordinates."""
+        x = _rows(u).copy()
+        idx = list(self.logged)
+        x[:, idx] = np.exp(x[:, idx])
+        return x
+
+    def _jacobian(self, u: np.ndarray) -> np.ndarray:
+        """Log |dx/du| of rows in sampling coordinates (``x = exp(u)``: the sum of the u)."""
+        return _rows(u)[:, list(self.logged)].sum(axis=1)
+
+    def log_prior(self, u: np.ndarray) -> np.ndarray:
+        return self.post.log_prior(self.to_natural(u)) + self._jacobian(u)
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        return self.post(self.to_natural(u)) + self._jacobian(u)
+
+    def subset(self, most: int) -> SamplingSpace:
+        return replace(self, post=self.post.subset(most))
+
+    def box(self, mass: float = 1e-6) -> np.ndarray:
+        box = self.post.box(mass)
+        box[list(self.logged)] = np.log(box[list(self.logged)])
+        return box
+
+    def natural(self, draws: Any) -> Any:
+        """The samplers' draws in natural units, with log densities of the natural posterior
+        and the run record's mode and starts mapped back."""
+        samples = draws.samples.copy()
+        lp = draws.lp - samples[..., list(self.logged)].sum(axis=-1)
+        samples[..., list(self.logged)] = np.exp(samples[..., list(self.logged)])
+        info = draws.info
+        changes = {k: _natural_tuple(self, getattr(info, k)) for k in ("mode", "starts")
+                   if hasattr(info, k)}
+        return replace(draws, samples=samples, lp=lp,
+                       info=replace(info, **changes) if changes else info)
+
+
+def _natural_tuple(space: SamplingSpace, value: tuple) -> tuple:
+    """A point (or points) of a run record in natural units."""
+    if value and isinstance(value[0], tuple):
+        return tuple(_natural_tuple(space, v) for v in value)
+    return tuple(float(v) for v in space.to_natural(np.asarray(value, dtype=float))[0])
+
+
+def sampling_space(post: LogPosterior) -> LogPosterior | SamplingSpace:
+    """``post`` itself, or its :class:`SamplingSpace` where a parameter has a log-uniform
+    prior."""
+    from ..data import LogUniform
+
+    logged = tuple(i for i, p in enumerate(post.priors) if isinstance(p, LogUniform))
+    return SamplingSpace(post, logged) if logged else post

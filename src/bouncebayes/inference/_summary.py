@@ -127,6 +127,11 @@ def summarize_parameter(name, unit, prior, x, diag, rolling_share=None, *,
                f"rolling, and a rolling rebound does not depend on mu: the data only bound mu "
                f"from below")
         bound = {"side": "lower", "value": float(np.quantile(x, 0.05)), "level": 0.95}
+    elif name in ZERO_IS_AN_ANSWER and lo <= math.e * prior.support[0]:
+        why = (f"the posterior reaches down to the prior's lower end ({prior.support[0]:.3g}"
+               f"{' ' + unit if unit else ''}, far below the measurement noise): the data show "
+               f"no {name.replace('_', ' ')}, only bound it from above")
+        bound = {"side": "upper", "value": float(hi), "level": 0.95}
     elif np.std(x) > 0.8 * prior.sd and math.isfinite(prior.sd):
         why = (f"the posterior sd ({np.std(x):.3g}) is over 80 % of the prior sd "
                f"({prior.sd:.3g}): the data say little about {name}")
@@ -146,7 +151,11 @@ def warnings_for(summaries: list[ParameterSummary], samples: np.ndarray, priors,
     modes, draws piled against a prior bound, parameters the data do not identify.
     ``impossible_data``: some bounces no parameter value can produce, so that widening a prior
     is not the remedy for draws piled against it."""
-    out = list(info.warnings(summaries)) if info is not None else []
+    # a noise level or discrepancy bounded from above wanders along its flat lower stretch,
+    # where its chains mix slowly; that costs the bound little and the other parameters nothing
+    judged = summaries if hasattr(info, "cells_per_sd") else [  # the grid has no chains
+        s for s in summaries if not (s.name in ZERO_IS_AN_ANSWER and s.bound)]
+    out = list(info.warnings(judged)) if info is not None else []
     flat = samples.reshape(-1, samples.shape[-1])
     for i, s in enumerate(summaries):
         if len(s.modes) > 1:

@@ -1,8 +1,10 @@
 """Predicting new bounces with the calibrated model (``bouncebayes predict``).
 
 For every row of a table of incidences (speed, angle, spin), a seeded subset of posterior draws
-is simulated at that incidence. Rebound speed and angle get what a measurement of them would
-carry: the row's own standard errors where the table gives them, the noise levels or the model
+is simulated at that incidence, drawn within its uncertainty (the row's standard errors where
+it has them, the experiment's bounce-to-bounce spread where the nominal value stands in), as
+the measurement model of the inference takes it. Rebound speed and angle get what a measurement
+of them would carry: the row's own standard errors where the table gives them, the noise levels or the model
 discrepancy the run inferred (Student-t where the run used it), and the row's calibration
 uncertainty (``scale_rel_sd``) as one scale error shared by the rows of a draw. Rebound spin and
 contact time are the model's, with the parameters' uncertainty only. The output is the
@@ -24,13 +26,14 @@ import numpy as np
 from .._io import write_text
 from .._provenance import comment_line
 from ..data import Trials
-from ..inference import STUDENT_T_DOF, InferenceResult
+from ..inference import STUDENT_T_DOF, InferenceResult, incidence_variance
 from ._propagate import N_DRAWS, draw_subset
 
 PREDICTED = {"rebound_speed": "m/s", "rebound_angle": "deg", "rebound_spin": "rad/s",
              "contact_time": "s"}  #: predicted quantity -> unit
 QUANTILES = (0.05, 0.5, 0.95)
 BOUNCES_PER_BLOCK = 200_000  #: simulated at once (rows x draws)
+MAX_ANGLE = 89.9  #: deg; an incidence drawn beyond grazing is held there
 
 
 @dataclass(frozen=True)
@@ -94,21 +97,35 @@ def _simulate_rows(result: InferenceResult, trials: Trials, theta: dict, rows: n
     """Draws x rows of every predicted quantity (NaN where the bounce failed)."""
     e = result.experiment
     k, r = next(iter(theta.values())).size, rows.size
-    spin = np.broadcast_to(trials.incidence_spin[rows], (k, r))
-    if "spin" in result.names and "incidence_spin" not in trials.measured:
-        spin = np.broadcast_to(theta["spin"][:, None], (k, r))
+    speed, angle, spin = _incidences(result, trials, theta, rows, rng)
     values = {n: np.repeat(v, r) for n, v in theta.items() if n in e.model_parameters
               and n != "spin"}
-    b = e.bounce_model(values=values, errors="flag",
-                       speed=np.tile(trials.incidence_speed[rows], k),
-                       angle=np.tile(trials.incidence_angle[rows], k),
-                       spin=np.ravel(spin)).bounces()
+    b = e.bounce_model(values=values, errors="flag", speed=np.ravel(speed),
+                       angle=np.ravel(angle), spin=np.ravel(spin)).bounces()
     sims = {n: np.where(b.ok, getattr(b, n), np.nan).reshape(k, r) for n in PREDICTED}
     sims["rolling"] = np.where(b.ok, b.rolling, False).reshape(k, r)
     speed, angle = _measurement_noise(result, trials, theta, rows, rng)
     sims["rebound_speed"] = sims["rebound_speed"] * speed[1] + speed[0]
     sims["rebound_angle"] = sims["rebound_angle"] + angle
     return sims, int(np.count_nonzero(~b.ok))
+
+
+def _incidences(result: InferenceResult, trials: Trials, theta: dict, rows: np.ndarray,
+                rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    """Draws x rows of the true incidence (speed, angle, spin): the row's values plus their
+    uncertainty, as the likelihood has it (standard errors where measured, the experiment's
+    bounce-to-bounce spread where the nominal value stands in); the inferred spin where the
+    row has none."""
+    k, r = next(iter(theta.values())).size, rows.size
+    sd = np.sqrt(incidence_variance(result.experiment, trials)[rows])
+    base = [np.asarray(trials.column(c), dtype=float)[rows]
+            for c in ("incidence_speed", "incidence_angle", "incidence_spin")]
+    if "spin" in result.names and "incidence_spin" not in trials.measured:
+        base[2], sd[:, 2] = theta["spin"][:, None], 0.0
+    z = rng.standard_normal((3, k, r))
+    speed, angle, spin = (np.broadcast_to(b, (k, r)) + sd[None, :, j] * z[j]
+                          for j, b in enumerate(base))
+    return np.abs(speed), np.clip(angle, 0.0, MAX_ANGLE), spin
 
 
 def _measurement_noise(result: InferenceResult, trials: Trials, theta: dict, rows: np.ndarray,
