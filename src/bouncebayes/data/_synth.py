@@ -17,6 +17,9 @@ from ._trajectory import write_trajectory
 from ._trials import Trials, make_trials, write_trials
 
 
+MAX_MEASURED_ANGLE = 89.99  #: deg: the trial table's incidence angle is below 90
+
+
 class SynthesisError(ValueError):
     """The experiment's true values do not give a campaign (e.g. bounces that never separate)."""
 
@@ -80,6 +83,11 @@ def synthesize(experiment: Experiment, *, seed: int, n: int | None = None) -> Ca
                 "incidence_speed": per["incidence_speed"],
                 "incidence_angle": per["incidence_angle"]}
     measured = {k: true_obs[k] + rng.normal(0.0, sd, n) for k, sd in noise.items()}
+    # speeds and the incidence angle from the normal are magnitudes: noise near zero folds
+    # back, as a measurement of them does (an incident angle is measured in [0, 90) deg)
+    for k in ("rebound_speed", "incidence_speed", "incidence_angle"):
+        measured[k] = np.abs(measured[k])
+    measured["incidence_angle"] = np.minimum(measured["incidence_angle"], MAX_MEASURED_ANGLE)
     trials = make_trials(experiment, **measured,
                          se={k: np.full(n, sd) for k, sd in noise.items() if sd > 0},
                          labels=[f"bounce_{i + 1:03d}" for i in range(n)], source="synthetic")

@@ -125,7 +125,7 @@ def _incidences(result: InferenceResult, trials: Trials, theta: dict, rows: np.n
     z = rng.standard_normal((3, k, r))
     speed, angle, spin = (np.broadcast_to(b, (k, r)) + sd[None, :, j] * z[j]
                           for j, b in enumerate(base))
-    return np.abs(speed), np.clip(angle, 0.0, MAX_ANGLE), spin
+    return np.abs(speed), np.minimum(np.abs(angle), MAX_ANGLE), spin
 
 
 def _measurement_noise(result: InferenceResult, trials: Trials, theta: dict, rows: np.ndarray,
