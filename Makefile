@@ -30,20 +30,22 @@ test-slow: $(STAMP)
 	$(BIN)/python -m pytest -m slow
 
 ## The inference tests against the newest ArviZ line (arviz-base/arviz-stats 1.x, which need
-## Python >= 3.12); `make test` covers the lowest supported (0.8, the line on Python 3.11)
-PYTHON_NEWEST ?= python3.12
+## Python >= 3.12); `make test` covers the lowest supported (0.8, the line on Python 3.11).
+## PYTHON_NEWEST: a Python 3.12 interpreter (default: python3.12 on the PATH, else pyenv's)
+PYTHON_NEWEST ?= $(shell for p in python3.12 $$HOME/.pyenv/versions/3.12*/bin/python3.12; do \
+	$$p -c 1 >/dev/null 2>&1 && { echo $$p; break; }; done)
 NEWEST := .venv-newest
 test-newest:
-	@if command -v $(PYTHON_NEWEST) >/dev/null 2>&1; then \
+	@if [ -n "$(PYTHON_NEWEST)" ] && $(PYTHON_NEWEST) -c 1 >/dev/null 2>&1; then \
 		$(PYTHON_NEWEST) -m venv $(NEWEST) && \
 		$(NEWEST)/bin/python -m pip install --quiet --upgrade pip && \
 		$(NEWEST)/bin/python -m pip install --quiet --upgrade -e '.[test]' \
 			'arviz-base>=1' 'arviz-stats[xarray]>=1' && \
 		$(NEWEST)/bin/pip list 2>/dev/null | grep -i -E '^(arviz-base|arviz-stats|xarray|numpy) ' && \
 		$(NEWEST)/bin/python -m pytest tests/test_inference.py tests/test_priors.py \
-			tests/test_report.py; \
+			tests/test_inference_adequacy.py tests/test_report.py; \
 	else \
-		echo "test-newest: $(PYTHON_NEWEST) not found. ArviZ 1.x (arviz-base and arviz-stats >= 1)"; \
+		echo "test-newest: no runnable Python 3.12 found. ArviZ 1.x (arviz-base and arviz-stats >= 1)"; \
 		echo "needs Python >= 3.12, so the newest supported ArviZ cannot be tested with this"; \
 		echo "machine's Python; 'make test' covers the lowest supported line (0.8). Install"; \
 		echo "Python 3.12 or set PYTHON_NEWEST=/path/to/python3.12."; \

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -136,3 +137,32 @@ def test_the_private_name_check_can_fail(tmp_path, offence, found):
     hit = parts[0] != "inference" and not _private(parts[0]) and any(
         _private(p) for p in [*parts[1:], *(a.name for a in node.names)])
     assert hit is found
+
+
+ROOT = SRC.parents[1]
+# a path into the repository, as docs, the README and code name them
+REPO_PATH = re.compile(r"(?<![\w/.])((?:docs|tests|benchmarks|examples|src)/[\w./-]*\w"
+                       r"\.(?:md|py|toml|json|png|svg|csv|txt))")
+CITED = ("README.md", "docs/*.md", "src/**/*.py", "tests/*.py", "benchmarks/*.py",
+         "tests/data/**/*.md", "examples/*.toml")
+
+
+def _cited_files() -> list[Path]:
+    return sorted({p for pattern in CITED for p in ROOT.glob(pattern) if p.is_file()})
+
+
+def test_the_repository_cites_only_what_it_holds():
+    """Every repository path named in the README, docs, code, tests and examples exists, and
+    nothing cites files outside the repository, a brief or an issue number."""
+    missing, outside = [], []
+    for path in _cited_files():
+        text = path.read_text(encoding="utf-8")
+        upstream = path.is_relative_to(ROOT / "tests" / "data")  # names paths of its sources
+        for m in ([] if upstream else REPO_PATH.finditer(text)):
+            if "*" not in m[1] and not (ROOT / m[1]).exists():
+                missing.append(f"{path.relative_to(ROOT)}: {m[1]}")
+        for bad in re.finditer(r"MODEL\.md|paper\.md|\bthe brief\b|\b[Ii]ssue #?\d+|"
+                               r"\bthe issue'?s?\b", text):
+            outside.append(f"{path.relative_to(ROOT)}: {bad[0]}")
+    assert not missing, "paths that do not exist:\n" + "\n".join(missing)
+    assert not outside, "citations outside the repository:\n" + "\n".join(outside)

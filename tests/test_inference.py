@@ -422,6 +422,13 @@ def test_posterior_netcdf_holds_draws_data_and_provenance(tmp_path, demo_grid):
     assert attrs["bouncebayes_version"] == bb.__version__
     assert attrs["data_sha256"] == hashlib.sha256(DEMO.trials.read_bytes()).hexdigest()
     assert json.loads(attrs["config"]) == {"draws": 500, "points": 128}
+    # the package's one provenance record, also for a library user (no command line)
+    from bouncebayes._provenance import read_provenance
+
+    record = read_provenance(tmp_path / "posterior.nc")
+    assert record["seed"] == 12 and record["command"] is None and record["created_utc"]
+    assert record["inputs"]["trials"]["sha256"] == attrs["data_sha256"]
+    assert set(idata["adequacy"].data_vars) == {"residual_speed", "residual_angle", "ppp"}
     with np.load(tmp_path / "grid.npz") as grid:
         cell = (grid["centres_0"][1] - grid["centres_0"][0]) * (grid["centres_1"][1]
                                                                 - grid["centres_1"][0])

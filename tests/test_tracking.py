@@ -2,7 +2,7 @@
 
 Expected values come from the renderer (``tests/video_helpers.py``): the ball centre at
 mid-exposure, exact plane-frame positions, the scale and the surface line it was drawn with, and
-the bounce's rebound velocity. Accuracy thresholds are the issue's (0.1 px RMS clean, 0.5 px with
+the bounce's rebound velocity. Accuracy thresholds are the tracker's targets (0.1 px RMS clean, 0.5 px with
 noise and blur); the values measured when this file was written are noted beside each test.
 """
 

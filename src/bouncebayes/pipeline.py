@@ -24,10 +24,11 @@ from ._provenance import provenance, stamp, stamp_tree
 
 TRAJECTORY_SUFFIXES = (".csv", ".txt")
 EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
+# what `report` needs of a run folder
+RUN_FILES = ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE)
 # what a run writes; anything else found in an earlier run folder is the user's, and kept
-RUN_ENTRIES = frozenset({"report.html", "summary.json", "posterior.nc", "grid.npz",
-                         "propagation.json", "propagation.npz", "figures", "tracking",
-                         "trajectories", EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE})
+RUN_ENTRIES = frozenset({*RUN_FILES, "report.html", "grid.npz", "propagation.json",
+                         "propagation.npz", "figures", "tracking", "trajectories", TRUTH_FILE})
 STAGES = ("data", "inference", "propagation", "figures", "report")
 
 

@@ -18,7 +18,7 @@ from ._provenance import provenance_rows
 from .data import load_experiment, load_trials
 from .inference import InferenceResult, load_inference
 from .inference import MEANINGS, SAMPLER_MEANINGS, ParameterSummary
-from .pipeline import EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE
+from .pipeline import EXPERIMENT_FILE, RUN_FILES, TRIALS_FILE, TRUTH_FILE
 
 
 CAPTIONS = {
@@ -58,7 +58,6 @@ FIGURES_NOTE = ("Axis limits hold the bulk of the values (Tukey's outer fences);
 DEFAULT_FORMATS = ("png",)
 
 
-RUN_FILES = ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE)
 _SUMMARY_KEYS: dict[str, type | tuple[type, ...]] = {
     "parameters": dict, "likelihood": str, "sampler": str, "seed": int,
     "sampler_settings": dict, "regimes": dict, "warnings": list, "likelihood_details": dict,

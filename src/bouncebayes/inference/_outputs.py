@@ -32,11 +32,23 @@ OBSERVED = ("rebound_speed", "rebound_angle", "incidence_speed", "incidence_angl
 
 
 def provenance(result: Any) -> dict[str, Any]:
-    """Attributes of posterior.nc: what made it, from which inputs, with which settings."""
+    """Attributes of posterior.nc: what made it, from which inputs, with which settings, and
+    the package's one provenance record (``provenance``, as every output file carries it; a
+    command stamps its own, with its command line, over it)."""
     import arviz_base
 
+    from .._provenance import one_line
+    from .._provenance import provenance as record
+
     t, e = result.trials, result.experiment
-    return {"bouncebayes_version": __version__, "seed": result.seed,
+    stamp = record(inputs={}, seed=result.seed, config={
+        "likelihood": result.likelihood, "sampler": result.sampler,
+        "discrepancy": result.discrepancy, "sampler_config": result.config.to_dict(),
+        "memory_budget": result.memory_budget})
+    stamp["inputs"] = {"experiment": {"path": e.source, "sha256": e.text_sha256},
+                       "trials": {"path": t.source, "sha256": t.sha256}}
+    return {"provenance": one_line(stamp), "bouncebayes_version": __version__,
+            "seed": result.seed,
             "likelihood": result.likelihood, "sampler": result.sampler,
             "config": json.dumps(result.config.to_dict()),
             "memory_budget_bytes": result.memory_budget,
