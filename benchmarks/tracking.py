@@ -10,7 +10,7 @@ Measured separately, each the best of ``--repeats`` runs:
 
 1. ``frames_per_s``: :func:`bouncebayes.tracking.track_ball` on frames already in memory
    (background model, noise estimate, per-frame search and sub-pixel fit, edge fits), the
-   number the issue's target is about;
+   number the speed target (README) is about;
 2. ``decode_frames_per_s``: :func:`bouncebayes.tracking.read_frames` of the same frames from an
    MJPG .avi file (OpenCV/FFmpeg decoding plus conversion to grey);
 3. ``end_to_end_frames_per_s``: both, one after the other.
