@@ -293,3 +293,29 @@ def test_run_passes_progress_to_the_sampler(tmp_path, demo, monkeypatch):
                         log=lambda m: None)
     assert seen["progress"] is True
     assert list(tmp_path.iterdir()) == []
+
+
+def test_run_passes_progress_to_propagation_and_figures(tmp_path, demo, monkeypatch):
+    """The long stages after the sampler show a progress bar too when asked (and only then:
+    the CLI asks on a terminal only)."""
+    import bouncebayes.propagation
+    import bouncebayes.report
+
+    seen = {}
+    real = bouncebayes.propagation.propagate
+
+    def spy_propagate(*args, **kwargs):
+        seen["propagate"] = kwargs.get("progress")
+        return real(*args, **kwargs | {"n_histories": 2})
+
+    def spy_figures(*args, **kwargs):
+        seen["figures"] = kwargs.get("progress")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bouncebayes.propagation, "propagate", spy_propagate)
+    monkeypatch.setattr(bouncebayes.report, "make_figures", spy_figures)
+    with pytest.raises(KeyboardInterrupt):
+        bb.pipeline.run(demo.experiment, demo.trials, tmp_path / "o", progress=True,
+                        config=bb.inference.GridConfig(draws=200, points=64), sampler="grid",
+                        log=lambda m: None)
+    assert seen == {"propagate": True, "figures": True}

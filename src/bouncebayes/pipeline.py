@@ -195,7 +195,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     with staged_output(out, "folder") as stage:
         result, prop = _analyse(experiment_path, data, stage, out, settings, times, log, fps,
                                 truth)
-        report = _draw(result, prop, stage, times, log, record, figure_formats)
+        report = _draw(result, prop, stage, times, log, record, figure_formats, progress)
         stamp_tree(stage, record)
         carry_over(out, stage, log)
     from .inference import format_table
@@ -231,7 +231,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     times["inference"] = time.perf_counter() - start
 
     start = _stage(3, "propagation of the posterior", log)
-    prop = propagate(result)
+    prop = propagate(result, progress=settings["progress"])
     write_propagation(prop, stage)
     times["propagation"] = time.perf_counter() - start
     return result, prop
@@ -258,13 +258,14 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
 
 
 def _draw(result, prop, stage: Path, times: dict, log, record: dict,
-          formats: Sequence[str]) -> Path:
+          formats: Sequence[str], progress: bool = False) -> Path:
     """Stages 4-5: figures and the report (written into ``stage``)."""
     from .report import load_truth, make_figures, render_report
 
     start = _stage(4, "figures", log)
     truth_values = load_truth(stage)
-    figures = make_figures(result, prop, stage, truth_values, formats=formats)
+    figures = make_figures(result, prop, stage, truth_values, formats=formats,
+                           progress=progress)
     times["figures"] = time.perf_counter() - start
 
     start = _stage(5, "report", log)
@@ -297,10 +298,11 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
             from .propagation import propagate, write_propagation
 
             log("propagating the posterior ...")
-            prop = propagate(result)
+            prop = propagate(result, progress=progress)
             written += write_propagation(prop, stage).values()
         log("figures ...")
-        figures = make_figures(result, prop, stage, truth, formats=figure_formats)
+        figures = make_figures(result, prop, stage, truth, formats=figure_formats,
+                               progress=progress)
         report = render_report(result, prop.summary(), figures, stage, truth,
                                provenance=shown)
         for path in [*written, *(stage / "figures").rglob("*")]:

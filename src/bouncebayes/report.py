@@ -268,16 +268,21 @@ def _residual_figure(result: InferenceResult):
 
 def make_figures(result: InferenceResult, prop, folder: str | Path,
                  truth: dict | None = None, *,
-                 formats=DEFAULT_FORMATS) -> list[tuple[str, Path]]:
+                 formats=DEFAULT_FORMATS, progress: bool = False) -> list[tuple[str, Path]]:
     """Draw every figure under ``folder/figures`` as PNG and the other ``formats`` asked for
     (``"svg"``, ``"pdf"``); returns (key, PNG path) in report order. Files of a figure in
-    formats not asked for this time are removed, so that none is left from an earlier run."""
+    formats not asked for this time are removed, so that none is left from an earlier run.
+    ``progress``: a progress bar over the figures."""
+    from tqdm.auto import tqdm
+
     from .plots import FIGURE_FORMATS, save_figure
 
     fmts = figure_formats(formats)
     out = Path(folder) / "figures"
     written = []
-    for key, draw in figure_makers(result, prop, folder, truth).items():
+    makers = figure_makers(result, prop, folder, truth)
+    for key, draw in tqdm(makers.items(), total=len(makers), desc="figures",
+                          disable=not progress, leave=False, unit="figure"):
         fig = draw()
         if fig is None:
             continue

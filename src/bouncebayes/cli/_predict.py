@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ._common import check_out_file, integer, record
+from ._common import add_quiet, check_out_file, integer, record, show_progress
 
 HELP = "predict the rebound of new bounces from a run's posterior"
 DESCRIPTION = (
@@ -33,6 +33,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="posterior draws simulated per row (default 2000)")
     p.add_argument("--seed", type=integer(0), default=None,
                    help="seed of the draws and noise (default: the run's)")
+    add_quiet(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,7 +45,8 @@ def run(args: argparse.Namespace) -> int:
     check_out_file("--out", args.out, (".csv",))
     result = load_result(args.folder)
     trials = load_trials(args.trials, result.experiment, rebound_required=False)
-    pred = predict_bounces(result, trials, n_draws=args.draws, seed=args.seed)
+    pred = predict_bounces(result, trials, n_draws=args.draws, seed=args.seed,
+                           progress=show_progress(args))
     stamp = record(args, {"run_folder": args.folder, "trials": args.trials}, seed=pred.seed,
                    config={"draws": pred.n_draws, "includes": pred.includes})
     write_predictions(pred, args.out, stamp)

@@ -64,9 +64,12 @@ def _cell(x: float) -> str:
 
 
 def predict_bounces(result: InferenceResult, trials: Trials, *, n_draws: int = N_DRAWS,
-                    seed: int | None = None) -> Predictions:
+                    seed: int | None = None, progress: bool = False) -> Predictions:
     """The posterior predictive distribution of the rebound of every row of ``trials`` (see
-    the module docstring); ``seed`` (default: the run's) picks the draws and the noise."""
+    the module docstring); ``seed`` (default: the run's) picks the draws and the noise;
+    ``progress``: a progress bar over the rows."""
+    from tqdm.auto import tqdm
+
     seed = result.seed if seed is None else int(seed)
     if isinstance(n_draws, bool) or not isinstance(n_draws, int) or n_draws < 20:
         raise ValueError(f"`draws` must be an integer >= 20; got {n_draws!r}")
@@ -76,7 +79,8 @@ def predict_bounces(result: InferenceResult, trials: Trials, *, n_draws: int = N
     columns: dict[str, list[np.ndarray]] = {}
     block = max(1, BOUNCES_PER_BLOCK // k)
     failed = 0
-    for s in range(0, trials.n, block):
+    for s in tqdm(range(0, trials.n, block), desc="predict", disable=not progress, leave=False,
+                  unit="block", mininterval=0.2):
         rows = np.arange(s, min(trials.n, s + block))
         sims, bad = _simulate_rows(result, trials, theta, rows, rng_noise)
         failed += bad

@@ -91,8 +91,9 @@ def _simulate(experiment: Experiment, theta: dict, **incidence) -> Bounces:
 
 
 def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int = N_DRAWS,
-              n_histories: int = N_HISTORIES) -> Propagation:
-    """Propagate a seeded subset of the posterior draws (seed: the inference's by default)."""
+              n_histories: int = N_HISTORIES, progress: bool = False) -> Propagation:
+    """Propagate a seeded subset of the posterior draws (seed: the inference's by default);
+    ``progress``: a progress bar over the time histories (the long part)."""
     seed = result.seed if seed is None else int(seed)
     rng_pick, _ = np.random.default_rng([seed, 1]).spawn(2)  # the second: once the predictive's
     e = result.experiment
@@ -100,7 +101,7 @@ def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int 
     inc = e.incidence
     bounces = _simulate(e, theta, speed=inc.speed, angle=inc.angle, spin=theta["spin"])
     speed, angle = predictive(result)
-    histories, hist_failed = _histories(e, theta, n_histories)
+    histories, hist_failed = _histories(e, theta, n_histories, progress)
     n_failed = bounces.n_failed + hist_failed
     failures = "; ".join(x for x in (bounces.failure_summary(),
                                      f"{hist_failed} histories" if hist_failed else "") if x)
@@ -148,12 +149,15 @@ def predictive_match(result: InferenceResult, speed: np.ndarray, angle: np.ndarr
     return out
 
 
-def _histories(e: Experiment, theta: dict, n: int) -> tuple[dict, int]:
+def _histories(e: Experiment, theta: dict, n: int, progress: bool = False) -> tuple[dict, int]:
+    from tqdm.auto import tqdm
+
     keys = ("time", "x", "y", "normal_force", "friction_force", "in_contact")
     out: dict[str, list] = {k: [] for k in keys}
     failed = 0
     inc = e.incidence
-    for i in range(min(n, theta["mu"].size)):
+    for i in tqdm(range(min(n, theta["mu"].size)), desc="histories", disable=not progress,
+                  leave=False, unit="draw", mininterval=0.2):
         try:
             values = e.model_values({k: float(theta[k][i]) for k in e.model_parameters})
             h = simulate_history(e.ball, speed=inc.speed, angle=inc.angle, n_contact=200,
