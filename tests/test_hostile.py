@@ -365,11 +365,13 @@ def _others_cases():
 # the study commands: every case fails before a cluster starts (--scheduler serial where the
 # check needs the experiment), so none costs more than reading the inputs
 DESIGN_OPTIONS = {"--angles": ("abc", "95", "0", "10:5:1"), "--speeds": ("-1", "0", "x"),
+                  "--memory-budget": ("abc", "-1"),
                   "--bounces": ("0", "1.5"), "--frame-rates": ("0", "-100"),
                   "--position-noise": ("-1", "0"), "--campaigns": ("0", "1", "x"),
                   "--target": ("mu=abc", "nope=0.1", "mu"), "--seed": ("-1", "x"),
                   "--scheduler": ("foo",), "--workers": ("0", "x")}
 SBC_OPTIONS = {"--campaigns": ("0", "x"), "--draws": ("10", "-1"), "--n-trials": ("0",),
+               "--memory-budget": ("abc", "1"),
                "--grid-points": ("3", "x"), "--seed": ("-1",), "--scheduler": ("udp://x",),
                "--workers": ("0",)}
 _RUN = '[[run]]\nexperiment = "exp.toml"\ndata = "trials.csv"\nout = "o"\n'
@@ -415,6 +417,11 @@ def _study_cases():
     yield "batch-missing-manifest", ["batch", "{root}/in/none.toml"], "none.toml", ()
     yield "batch-manifest-a-folder", ["batch", "{dir}"], "emptydir", ()
     yield "batch--workers=0", ["batch", "{manifest:empty}", "--workers", "0"], "--workers", ()
+    # requests that cannot fit the memory budget: refused before any task starts
+    yield ("sbc-grid-beyond-memory", ["sbc", "--out", "{out}", "--grid-points", "100000"],
+           "--grid-points", ())
+    yield ("design-bounces-beyond-memory", ["design", "{exp}", "--out", "{out}", "--bounces",
+                                            "50000000", "--scheduler", "serial"], "--bounces", ())
     yield from _predict_cases()
 
 

@@ -177,6 +177,7 @@ def test_history_is_the_summary_of_the_same_solve(monkeypatch):
     and the summary equals simulate(method="ode") (the same integration) exactly."""
     from bouncebayes.model import _history, _kernel
 
+    bb.simulate(**PAPER)  # the closed form's tables, built by batch solves at first use
     calls = []
     solve = _history.solve_with_segments
     monkeypatch.setattr(_history, "solve_with_segments",

@@ -245,10 +245,15 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--grid-points", type=integer(), metavar="N",
                    help="grid points per parameter (default 2048 / 512 / 96 for 1 / 2 / 3 "
                         "parameters)")
-    g.add_argument("--memory-budget", type=byte_size, default=None, metavar="SIZE",
-                   help="memory the inference may hold at once, e.g. 4G or 512M (default 2G); "
-                        "a request that needs more is refused before it starts")
+    add_memory_budget(g)
     add_quiet(p)
+
+
+def add_memory_budget(g) -> None:
+    """``--memory-budget SIZE`` (bytes; suffixes K, M, G)."""
+    g.add_argument("--memory-budget", type=byte_size, default=None, metavar="SIZE",
+                   help="memory an inference may hold at once, e.g. 4G or 512M (default 2G); "
+                        "a request that needs more is refused before it starts")
 
 
 def inference_options(args: argparse.Namespace) -> dict:

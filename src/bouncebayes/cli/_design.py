@@ -6,8 +6,8 @@ import argparse
 from pathlib import Path
 
 from ._batch import add_cluster_arguments
-from ._common import (UserError, add_out_folder, check_out_folder, integer, log, record,
-                      show_progress)
+from ._common import (UserError, add_memory_budget, add_out_folder, check_out_folder, integer,
+                      log, record, show_progress)
 
 HELP = "plan an experiment: expected posterior widths for candidate angles, bounces, cameras"
 DESCRIPTION = ("For every combination of candidate incidence angles, speeds, numbers of "
@@ -81,6 +81,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="target posterior sd, e.g. mu=0.01,eta=0.1: recommend the cheapest "
                         "design reaching them")
     g.add_argument("--seed", type=integer(0), default=0, help="seed of the study")
+    add_memory_budget(g)
     add_cluster_arguments(p)
 
 
@@ -110,9 +111,13 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = run_design(doc, space, seed=args.seed, targets=args.target, store=store,
                             scheduler=args.scheduler, workers=args.workers,
-                            progress=show_progress(args), log=log)
+                            progress=show_progress(args), log=log,
+                            memory_budget=args.memory_budget)
     except ValueError as exc:
-        raise UserError(str(exc).replace("`target`", "`--target`")) from None
+        message = str(exc).replace("`target`", "`--target`")
+        for name, flag in SPACE_FLAGS.items():
+            message = message.replace(f"`{name}`", f"`{flag}`")
+        raise UserError(message) from None
     stamp = record(args, {"experiment": args.experiment}, seed=args.seed)
     with staged_output(args.out, "entries", owned=OUTPUTS) as stage:
         write_json(stage / "design.json", result | {"provenance": stamp})

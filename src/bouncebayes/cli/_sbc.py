@@ -6,7 +6,8 @@ import argparse
 import json
 
 from ._batch import add_cluster_arguments
-from ._common import add_out_folder, check_out_folder, integer, log, record, show_progress
+from ._common import (add_memory_budget, add_out_folder, check_out_folder, integer, log, record,
+                      show_progress)
 
 HELP = "simulation-based calibration of the gaussian likelihood (many synthetic campaigns)"
 DESCRIPTION = ("Simulation-based calibration (Talts et al. 2018): draw (mu, eta) from the "
@@ -33,6 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="posterior draws per campaign (draws + 1 must be a multiple of 20)")
     p.add_argument("--grid-points", type=integer(16), default=D["grid_points"], metavar="N",
                    help="grid points per parameter of each posterior")
+    add_memory_budget(p)
     add_cluster_arguments(p)
 
 
@@ -48,7 +50,8 @@ def run(args: argparse.Namespace) -> int:
     result = run_sbc(args.campaigns, seed=args.seed, store=args.out / "campaigns",
                      scheduler=args.scheduler, workers=args.workers,
                      progress=show_progress(args), log=log, n_trials=args.n_trials,
-                     draws=args.draws, grid_points=args.grid_points)
+                     draws=args.draws, grid_points=args.grid_points,
+                     memory_budget=args.memory_budget)
     result["provenance"] = record(args, {}, seed=args.seed)
     path = write_json(args.out / "sbc.json", result)
     print(f"SBC: {result['campaigns_done']} of {args.campaigns} campaigns "

@@ -29,11 +29,13 @@ def setting_errors(doc: dict, setting: tuple, source: str, seed: int) -> dict[st
 
 
 def design_campaign(doc: dict, setting: tuple, n_bounces: tuple[int, ...], errors: dict,
-                    truth_seed: int, seed: int, grid_points: int) -> dict[str, Any]:
+                    truth_seed: int, seed: int, grid_points: int,
+                    memory_budget: int | None = None) -> dict[str, Any]:
     """Posterior widths, information gain and identifiability of one campaign, for each number
-    of bounces (the first n of one campaign of max(n_bounces))."""
+    of bounces (the first n of one campaign of max(n_bounces)); ``memory_budget``: bytes
+    each inference may hold (its default if None)."""
     from ..data import make_trials, parse_experiment, synthesize
-    from ..inference import GridConfig, infer
+    from ..inference import DEFAULT_MEMORY_BUDGET, GridConfig, infer
 
     angle, speed, rate, noise = setting
     base = parse_experiment(doc, source="design")
@@ -59,7 +61,9 @@ def design_campaign(doc: dict, setting: tuple, n_bounces: tuple[int, ...], error
                              se={c: np.asarray(full.se[c])[:n] for c in errors},
                              labels=full.labels[:n], source="design")
         result = infer(exp, trials, likelihood="gaussian", sampler="grid", seed=infer_seed,
-                       noise="given", config=GridConfig(draws=100, points=grid_points))
+                       noise="given", discrepancy="none",
+                       config=GridConfig(draws=100, points=grid_points),
+                       memory_budget=memory_budget or DEFAULT_MEMORY_BUDGET)
         run = result.draws.info
         rolling = result.regimes["share_rolling"]
         rows[str(n)] = {"sd": dict(zip(result.names, map(float, run.exact_sd), strict=True)),

@@ -35,7 +35,8 @@ def study_key(doc: Mapping, space: DesignSpace, seed: int) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-def design_tasks(doc: dict, space: DesignSpace, seed: int, store: Path | None):
+def design_tasks(doc: dict, space: DesignSpace, seed: int, store: Path | None,
+                 memory_budget: int | None = None):
     """One task per (setting, campaign). Campaign j draws its truth from seed j of the study
     (the same truths at every setting: common random numbers across designs); task i is
     seeded with task_seed(seed, i); a setting's standard errors with its own seed."""
@@ -49,7 +50,8 @@ def design_tasks(doc: dict, space: DesignSpace, seed: int, store: Path | None):
             i = s * space.campaigns + j
             key = f"design-{s:04d}-campaign-{j:04d}"
             args = (doc, setting, space.n_bounces, errors, task_seed(seed, n_settings
-                    * space.campaigns + j), task_seed(seed, i), space.grid_points)
+                    * space.campaigns + j), task_seed(seed, i), space.grid_points,
+                    memory_budget)
             spec = {"setting": list(setting), "campaign": j, "errors": errors,
                     "study": study_key(doc, space, seed)}
             tasks.append(Task(key, design_campaign, args, spec,
@@ -60,11 +62,13 @@ def design_tasks(doc: dict, space: DesignSpace, seed: int, store: Path | None):
 def run_design(doc: dict, space: DesignSpace, *, seed: int = 0, targets: Mapping | None = None,
                store: Path | None = None, scheduler: str | None = "serial",
                workers: int | None = None, progress: bool = False,
-               log: Callable[[str], None] | None = None) -> dict[str, Any]:
+               log: Callable[[str], None] | None = None,
+               memory_budget: int | None = None) -> dict[str, Any]:
     """Evaluate every design of ``space`` for the experiment document ``doc`` (parsed TOML)
     and recommend the cheapest reaching ``targets`` (parameter -> posterior sd); returns the
     content of design.json. ``store``, ``scheduler``, ``workers``: as
-    :func:`bouncebayes.studies.run_tasks`."""
+    :func:`bouncebayes.studies.run_tasks`; ``memory_budget``: bytes each campaign's inference
+    may hold (the largest is planned before any task starts, and refused if it cannot fit)."""
     from ..data import parse_experiment
     from ..studies import run_tasks
 
@@ -74,7 +78,8 @@ def run_design(doc: dict, space: DesignSpace, *, seed: int = 0, targets: Mapping
         raise ValueError(f"the design study uses the grid posterior (1 to 3 inferred "
                          f"parameters); the experiment infers {len(names)}")
     targets = check_targets(targets or {}, names)
-    tasks = design_tasks(doc, space, seed, store)
+    check_memory(space, len(names), memory_budget)
+    tasks = design_tasks(doc, space, seed, store, memory_budget)
     outcome = run_tasks(tasks, scheduler=scheduler, workers=workers, progress=progress,
                         log=log, desc="design")
     designs = aggregate(experiment, space, tasks, outcome.results, seed)
@@ -86,6 +91,20 @@ def run_design(doc: dict, space: DesignSpace, *, seed: int = 0, targets: Mapping
             "boundary": boundaries(experiment, space),
             "failed": outcome.failed, "where": outcome.where, "seconds": outcome.seconds,
             "task_cpu_seconds": outcome.task_cpu_seconds}
+
+
+def check_memory(space: DesignSpace, dim: int, memory_budget: int | None) -> None:
+    """Refuse, before any task, a study whose largest campaign cannot be inferred within the
+    memory budget (each task would fail after simulating it)."""
+    from ..inference import DEFAULT_MEMORY_BUDGET, GridConfig, MemoryBudgetError, plan_memory
+
+    n = max(space.n_bounces)
+    try:
+        plan_memory(n, dim, "grid", GridConfig(draws=100, points=space.grid_points),
+                    budget=memory_budget or DEFAULT_MEMORY_BUDGET)
+    except MemoryBudgetError as exc:
+        raise ValueError(f"the largest campaign ({n} bounces) cannot be inferred: {exc}; or "
+                         f"lower `n_bounces`") from None
 
 
 def check_targets(targets: Mapping, names) -> dict[str, float]:

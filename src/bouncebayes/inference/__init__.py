@@ -31,6 +31,7 @@ from ._infer import InferenceResult as InferenceResult
 from ._infer import format_table as format_table
 from ._infer import infer as infer
 from ._infer import load_inference as load_inference
+from ._infer import plan_memory as plan_memory
 from ._likelihood import DISCREPANCIES as DISCREPANCIES
 from ._likelihood import DISCREPANCY_MEANINGS as DISCREPANCY_MEANINGS
 from ._likelihood import LIKELIHOODS as LIKELIHOODS
@@ -61,6 +62,6 @@ __all__ = [
     "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",
     "MHState", "MemoryBudgetError", "ParameterSummary", "Replicates",
     "ensemble_init", "ensemble_step", "format_table", "infer", "inference_data",
-    "load_inference", "marginal_modes", "mh_init", "mh_step", "noise_priors",
+    "load_inference", "marginal_modes", "plan_memory", "mh_init", "mh_step", "noise_priors",
     "sampler_config", "write_outputs",
 ]

@@ -223,21 +223,28 @@ def _check_arguments(likelihood: str, sampler: str, noise: str, discrepancy: str
 
 def _plan(likelihood: str, sampler: str, config: Any, dim: int, trials: Trials,
           budget: int) -> float:
-    """Bytes held through the run (the table, the draws, a grid); refuse up front what cannot
-    fit: these beyond half the budget, or one likelihood evaluation beyond the rest."""
+    return plan_memory(trials.n, dim, sampler, config, likelihood, budget)
+
+
+def plan_memory(n_trials: int, dim: int, sampler: str, config: Any,
+                likelihood: str = "gaussian", budget: int = DEFAULT_MEMORY_BUDGET) -> float:
+    """Bytes an inference of ``n_trials`` trials and ``dim`` parameters holds through the run
+    (the table, the draws, a grid); refuse up front (:class:`MemoryBudgetError`) what cannot
+    fit: these beyond half the budget, or one likelihood evaluation beyond the rest. Studies
+    call it for their largest campaign before any task starts."""
     if sampler == "grid":
         check_grid_memory(config.points_for(dim), dim, budget, RESIDENT_SHARE)
     kept = config.draws + (config.chains if sampler == "mh" else 0)
     draws = kept * (dim + 4) * 8.0
     require(f"keeping {config.draws} draws of {dim} or more parameters", draws, budget,
             "lower `draws`, or raise `memory_budget`", RESIDENT_SHARE)
-    resident = (trials.n * BYTES_PER_TRIAL + draws
+    resident = (n_trials * BYTES_PER_TRIAL + draws
                 + (grid_bytes(config.points_for(dim), dim) if sampler == "grid" else 0.0))
-    require(f"holding {trials.n} trials, the draws and the grid through the run", resident,
+    require(f"holding {n_trials} trials, the draws and the grid through the run", resident,
             budget, "raise `memory_budget`, or split the table", RESIDENT_SHARE)
     if likelihood == "gaussian":
-        require(f"one evaluation of the gaussian likelihood ({trials.n} trials, each simulated "
-                f"at its own incidence)", trials.n * BYTES_PER_BOUNCE, budget - resident,
+        require(f"one evaluation of the gaussian likelihood ({n_trials} trials, each simulated "
+                f"at its own incidence)", n_trials * BYTES_PER_BOUNCE, budget - resident,
                 "raise `memory_budget`, or split the table")
     return resident
 

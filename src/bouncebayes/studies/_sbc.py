@@ -22,7 +22,7 @@ from ._tasks import Task, run_tasks, task_seed
 NAMES = ("mu", "eta")
 SBC_DEFAULTS: dict[str, Any] = {
     "campaigns": 300, "n_trials": 30, "draws": 999, "bins": 20, "grid_points": 512,
-    "seed": 20180413, "mu_box": (0.0, 0.2), "eta_box": (0.0, 5.0)}
+    "seed": 20180413, "mu_box": (0.0, 0.2), "eta_box": (0.0, 5.0), "memory_budget": None}
 
 
 def sbc_experiment(mu: float, eta: float, settings: dict):
@@ -51,8 +51,10 @@ def sbc_campaign(seed: int, settings: dict) -> dict:
     exp = sbc_experiment(theta[0], theta[1], settings)
     c = synthesize(exp, seed=synth_seed, n=settings["n_trials"])
     config = GridConfig(draws=settings["draws"], points=settings["grid_points"])
+    budget = settings.get("memory_budget")
     result = infer(exp, c.trials, likelihood="gaussian", sampler="grid", seed=infer_seed,
-                   config=config, noise="given", discrepancy="none")
+                   config=config, noise="given", discrepancy="none",
+                   **({} if budget is None else {"memory_budget": budget}))
     a = result.adequacy
     out: dict[str, Any] = {"truth": dict(zip(NAMES, theta, strict=True)),
                            "share_rolling_data": c.truth["share_rolling"]}
@@ -66,6 +68,15 @@ def sbc_campaign(seed: int, settings: dict) -> dict:
                      "covered": bool(p.ci90[0] <= theta[i] <= p.ci90[1]),
                      "posterior_sd": p.sd}
     return out
+
+
+def _check_memory(settings: dict) -> None:
+    """Refuse, before any task, campaigns whose inference cannot fit the memory budget."""
+    from ..inference import DEFAULT_MEMORY_BUDGET, GridConfig, plan_memory
+
+    plan_memory(settings["n_trials"], len(NAMES), "grid",
+                GridConfig(draws=settings["draws"], points=settings["grid_points"]),
+                budget=settings.get("memory_budget") or DEFAULT_MEMORY_BUDGET)
 
 
 def rank_test(ranks: np.ndarray, draws: int, bins: int) -> dict:
@@ -83,7 +94,7 @@ def rank_test(ranks: np.ndarray, draws: int, bins: int) -> dict:
 def sbc_tasks(settings: dict, store: Path | None) -> list[Task]:
     """The study's tasks: campaign ``i`` seeded with :func:`task_seed` (seed, i)."""
     spec = {k: list(v) if isinstance(v, tuple) else v for k, v in settings.items()
-            if k != "campaigns"}
+            if k not in ("campaigns", "memory_budget")}  # neither changes a campaign's result
     return [Task(f"campaign-{i:05d}", sbc_campaign, (task_seed(settings["seed"], i), settings),
                  spec | {"index": i},
                  None if store is None else store / f"campaign-{i:05d}.json")
@@ -107,7 +118,8 @@ def run_sbc(campaigns: int | None = None, *, seed: int | None = None,
         progress: a progress bar.
         log: receives the failure lines.
         overrides: settings of :data:`SBC_DEFAULTS` (``n_trials``, ``draws``, ``bins``,
-            ``grid_points``, ``mu_box``, ``eta_box``).
+            ``grid_points``, ``mu_box``, ``eta_box``, ``memory_budget``: bytes each
+            campaign's inference may hold, checked before any task starts).
     """
     unknown = sorted(set(overrides) - set(SBC_DEFAULTS))
     if unknown:
@@ -115,6 +127,7 @@ def run_sbc(campaigns: int | None = None, *, seed: int | None = None,
                          f"{', '.join(SBC_DEFAULTS)}")
     given = {"campaigns": campaigns, "seed": seed}
     settings = SBC_DEFAULTS | overrides | {k: v for k, v in given.items() if v is not None}
+    _check_memory(settings)
     tasks = sbc_tasks(settings, store)
     outcome = run_tasks(tasks, scheduler=scheduler, workers=workers, progress=progress, log=log,
                         desc="sbc")
