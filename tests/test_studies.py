@@ -181,3 +181,14 @@ def test_batch_runs_a_manifest_on_a_cluster_and_resumes(cluster, demo, tmp_path,
         assert (tmp_path / "runs" / name / "report.html").exists()
     assert main(argv) == 0
     assert "2 of 2 runs complete (2 from earlier" in capsys.readouterr().out
+
+
+def test_the_default_local_cluster_gives_the_serial_result(tmp_path, capsys):
+    """`--scheduler local` (the default): a cluster of processes started for the command and
+    stopped after it; the campaigns are bit-identical to the serial run's."""
+    serial, local = tmp_path / "serial", tmp_path / "local"
+    assert main(["sbc", "--out", str(serial), "--scheduler", "serial", *SMALL_SBC]) == 0
+    assert main(["sbc", "--out", str(local), "--workers", "2", *SMALL_SBC]) == 0
+    assert campaign_results(serial / "campaigns") == campaign_results(local / "campaigns")
+    assert json.loads((local / "sbc.json").read_text())["where"].startswith("local")
+    capsys.readouterr()
