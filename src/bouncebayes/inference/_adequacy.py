@@ -162,7 +162,7 @@ def measurement_residuals(like, samples: np.ndarray, lp: np.ndarray, y: np.ndarr
 def _joint_chi2(like, best: np.ndarray, d: np.ndarray) -> float:
     """Sum of the squared Mahalanobis lengths, with the shared scale factor (rank-one
     covariance across trials) taken out exactly (Sherman-Morrison)."""
-    g = getattr(like, "scale", None)
+    g = like.scale
     own = like.covariances(best)[0]
     if g is not None:
         own = own - g[:, :, None] * g[:, None, :]
@@ -286,7 +286,7 @@ def assess(like, samples: np.ndarray, lp: np.ndarray, replicates, trials,
     d) with their log densities, and posterior predictive replicates; model evaluations in
     batches within ``work`` bytes."""
     y = np.column_stack([trials.rebound_speed, trials.rebound_angle]).astype(float)
-    if hasattr(like, "covariances"):
+    if like.compares == "trials":
         z, chi2, ppp = measurement_residuals(like, samples, lp, y, work)
         dof = 2 * int(np.all(np.isfinite(z), axis=1).sum()) - samples.shape[-1]
         basis = ("each trial's stated errors and the model's other variance terms, at the "

@@ -13,8 +13,10 @@
 Every likelihood has the same interface: ``__call__`` (the samplers' log-likelihood),
 ``pointwise`` (its terms, for the ``log_likelihood`` group of posterior.nc), ``predict`` (the
 posterior predictive of the rebounds), ``structured_grid`` (a fast exact grid, or ``None``),
-``extra_parameters`` (parameters it adds to the model's) and ``bytes_per_row`` (its working
-memory per parameter row, for the memory plan).
+``extra_parameters`` (parameters it adds to the model's), ``bytes_per_row`` (its working
+memory per parameter row, for the memory plan) and ``compares`` ("trials": each trial with the
+model, with ``covariances``, ``scale`` and ``nu`` for the adequacy check; "distributions": the
+rebounds' distribution at the nominal incidence).
 
 What "pointwise" means: the gaussian likelihood is a product over trials, and its terms are the
 log-densities of each trial's rebound (``arviz_stats.loo`` and ``compare`` apply). The kde and
@@ -113,6 +115,7 @@ class _AtNominal:
 
     extra_parameters = ()
     observations = ("campaign",)
+    compares = "distributions"  #: the adequacy check standardises by the predictive (§10)
 
     @property
     def bytes_per_row(self) -> float:
@@ -202,6 +205,7 @@ class GaussianLikelihood:
     scale: np.ndarray | None = None  #: (n, 2) rebound speed, angle per sd of the shared scale
     _terms: tuple[np.ndarray, ...] = field(init=False, repr=False, compare=False)
     _general: tuple[np.ndarray, ...] = field(init=False, repr=False, compare=False)
+    compares = "trials"  #: each trial with the model: ``covariances`` and ``scale`` (§10)
 
     def __post_init__(self) -> None:
         """Precompute what every call needs: contiguous observations, the inverse covariances
