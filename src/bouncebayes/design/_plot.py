@@ -38,11 +38,13 @@ def _boundary_lines(ax, boundary: dict, legend: bool) -> None:
 
 
 def design_figure(result: dict[str, Any], path: str | Path) -> list[Path]:
-    """Write the figure as ``path`` (.png) and its .svg twin; returns both paths."""
+    """Write the figure as ``path`` (.png) and its .svg twin; returns both paths. Drawn on a
+    figure detached from pyplot (a library user's backend is left alone) and saved atomically
+    (``bouncebayes.plots.save_figure``)."""
     import matplotlib
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ..plots import save_figure
 
     units = result["parameters"]
     groups = _series(result["designs"])
@@ -50,9 +52,9 @@ def design_figure(result: dict[str, Any], path: str | Path) -> list[Path]:
     varied = [len({k[i] for k in keys}) > 1 for i in range(4)]
     with_p = any(d["p_mu_identified"] is not None for d in result["designs"])
     panels = len(units) + int(with_p)
-    fig, axes = plt.subplots(1, panels, figsize=(4.6 * panels, 4.2), squeeze=False,
-                             layout="constrained")
-    cmap = plt.get_cmap("viridis")
+    fig = Figure(figsize=(4.6 * panels, 4.2), layout="constrained")
+    axes = fig.subplots(1, panels, squeeze=False)
+    cmap = matplotlib.colormaps["viridis"]
     colours = {k: cmap(i / max(1, len(keys) - 1) * 0.9) for i, k in enumerate(keys)}
     for ax, (name, unit) in zip(axes[0], units.items(), strict=False):
         for key, ds in groups.items():
@@ -80,8 +82,4 @@ def design_figure(result: dict[str, Any], path: str | Path) -> list[Path]:
     fig.suptitle("Expected posterior width against incidence angle; left of a vertical line, "
                  "bounces with that mu leave rolling (mu not identified)", fontsize=10)
     png = Path(path)
-    svg = png.with_suffix(".svg")
-    fig.savefig(png, dpi=130)
-    fig.savefig(svg)
-    plt.close(fig)
-    return [png, svg]
+    return [save_figure(fig, png), save_figure(fig, png.with_suffix(".svg"))]
