@@ -356,7 +356,7 @@ def _warm_once(demo, out: Path, likelihood: str, sampler: str, config: Any) -> N
     experiment = load_experiment(demo.experiment)
     out.mkdir(parents=True)
     if (likelihood, sampler) == _WARMUP_CASES[0]:  # kinematics and the ODE path once
-        trial_table(demo.trajectories, experiment, out / TRIALS_FILE, log=lambda m: None)
+        trial_table(demo.data, experiment, out / TRIALS_FILE, log=lambda m: None)
         trials = load_trials(out / TRIALS_FILE, experiment)
     else:
         trials = load_trials(demo.trials, experiment)
