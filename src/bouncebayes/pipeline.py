@@ -26,7 +26,8 @@ TRAJECTORY_SUFFIXES = (".csv", ".txt")
 EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
 # what a run writes; anything else found in an earlier run folder is the user's, and kept
 RUN_ENTRIES = frozenset({"report.html", "summary.json", "posterior.nc", "grid.npz",
-                         "propagation.json", "propagation.npz", "figures", "tracking",
+                         "propagation.json", "propagation.npz", "derived.json", "figures",
+                         "tracking",
                          "trajectories", EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE})
 STAGES = ("data", "inference", "propagation", "figures", "report")
 
@@ -40,6 +41,7 @@ class RunOutcome:
     table: str
     verdict: str
     stage_seconds: dict
+    result: Any = None  #: the InferenceResult (``bouncebayes compare`` reads its evidence)
 
 
 def video_inputs(folder: Path) -> list[Path]:
@@ -200,7 +202,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     from .inference import format_table
 
     return RunOutcome(out, out / report.name, format_table(result), prop.match["verdict"],
-                      times)
+                      times, result)
 
 
 def _stage(k: int, name: str, log) -> float:
@@ -213,7 +215,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     """Stages 1-3: the trial table, the posterior, its propagation (written into ``stage``)."""
     from .data import load_experiment
     from .inference import infer, write_outputs
-    from .propagation import propagate, write_propagation
+    from .propagation import derive, propagate, write_derived, write_propagation
 
     start = _stage(1, "data and kinematics", log)
     experiment = load_experiment(experiment_path)
@@ -229,9 +231,10 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     write_outputs(result, stage)
     times["inference"] = time.perf_counter() - start
 
-    start = _stage(3, "propagation of the posterior", log)
+    start = _stage(3, "propagation of the posterior (and its DEM-ready quantities)", log)
     prop = propagate(result)
     write_propagation(prop, stage)
+    write_derived(derive(result), stage)
     times["propagation"] = time.perf_counter() - start
     return result, prop
 
@@ -298,6 +301,7 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
             log("propagating the posterior ...")
             prop = propagate(result)
             written += write_propagation(prop, stage).values()
+        written += _derived_if_missing(result, stage, log)
         log("figures ...")
         figures = make_figures(result, prop, stage, truth, formats=figure_formats)
         report = render_report(result, prop.summary(), figures, stage, truth,
@@ -305,6 +309,16 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
         for path in [*written, *(stage / "figures").rglob("*")]:
             stamp(path, record)
     return folder / report.name
+
+
+def _derived_if_missing(result, stage: Path, log) -> list[Path]:
+    """``derived.json`` for a run folder that has none (written before it existed)."""
+    from .propagation import derive, load_derived, write_derived
+
+    if load_derived(stage) is not None:
+        return []
+    log("DEM-ready quantities ...")
+    return [write_derived(derive(result), stage)]
 
 
 def _run_provenance(folder: Path) -> dict | None:
