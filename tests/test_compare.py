@@ -86,7 +86,11 @@ def test_comparison_picks_the_generating_model(tmp_path, truth):
 def test_comparison_says_when_the_data_cannot_tell(tmp_path):
     """Sliding throughout, the spring changes nothing: both models fit, their evidences agree
     to within 2 ln B < 2 (same likelihood, same prior on mu), and the verdict says the data do
-    not choose."""
+    not choose; comparison.json, the figure and the report say so too."""
+    import json
+
+    from bouncebayes.compare import write_comparison
+
     trials = _campaign(tmp_path, "mindlin", SLIDE, seed=5)
     c = compare_models(EXPERIMENT, trials, seed=1, **FAST)
     v = c.verdict
@@ -95,6 +99,13 @@ def test_comparison_says_when_the_data_cannot_tell(tmp_path):
     assert abs(c.models["spring"]["log_evidence"] - c.models["rigid"]["log_evidence"]) < 0.5
     assert v["loo_preferred"] is None
     assert all(m["adequate"] for m in c.models.values())
+    page = write_comparison(c, tmp_path / "out", provenance={"seed": 1}).read_text()
+    saved = json.loads((tmp_path / "out" / "comparison.json").read_text())
+    assert saved["verdict"]["text"] == v["text"] and saved["provenance"] == {"seed": 1}
+    assert set(saved["models"]["rigid"]) >= {"log_evidence", "log_evidence_se", "elpd_loo",
+                                             "elpd_loo_se"}
+    assert "cannot tell" in page and "data:image/png;base64," in page
+    assert (tmp_path / "out" / "figures" / "comparison.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_grid_and_nested_evidence_agree(tmp_path):
@@ -223,3 +234,60 @@ def test_kharaz_rigid_contact_is_flagged_and_loses(kharaz):
     assert v["preferred"] == "spring" and v["strength"] == "decisive", v["text"]
     assert v["bayes_factors"]["rigid"]["two_ln_b"] > 50
     assert v["misfitting"] == ["rigid"]
+
+
+# ------------------------------------------------------------------ the command
+
+
+@pytest.mark.slow  # two whole runs with their figures: about a minute on the shared machine
+def test_compare_command_writes_the_comparison_and_every_run(tmp_path, capsys):
+    """`bouncebayes compare` on the demo table with two normal laws (closed forms: fast):
+    comparison.json with every number the docs promise and its provenance, the figure, a
+    report linking each model's run folder, which `bouncebayes report` can redraw."""
+    import json
+
+    from bouncebayes.cli import main
+
+    exp = tmp_path / "exp.toml"
+    exp.write_text(bb.data.demo_campaign().experiment.read_text(encoding="utf-8")
+                   + "\n[models.kv]\n\n[models.hc]\nnormal = \"hunt-crossley\"\n"
+                     "[models.hc.parameters.eta]\nlow = 0.0\nhigh = 0.2\n", encoding="utf-8")
+    out = tmp_path / "cmp"
+    assert main(["compare", str(exp), str(bb.data.demo_campaign().trials), "--out", str(out),
+                 "--grid-points", "96", "--draws", "400"]) == 0
+    printed = capsys.readouterr().out
+    assert "log evidence" in printed and "report:" in printed
+    c = json.loads((out / "comparison.json").read_text())
+    for m in c["models"].values():
+        for key in ("log_evidence", "log_evidence_se", "elpd_loo", "elpd_loo_se", "p_loo",
+                    "pareto_k_max", "adequate", "evidence_method", "parameters"):
+            assert key in m, key
+        assert m["likelihood"] == "gaussian" and m["discrepancy"] == "none"
+    assert c["verdict"]["text"] and set(c["verdict"]["ranking"]) == {"kv", "hc"}
+    assert c["provenance"]["inputs"]["data"]["sha256"]
+    page = (out / "report.html").read_text()
+    assert 'href="models/kv/report.html"' in page and "Kass &amp; Raftery" in page
+    assert (out / "figures" / "comparison.png").read_bytes()[:4] == b"\x89PNG"
+    for name in ("kv", "hc"):
+        run = out / "models" / name
+        assert (run / "report.html").is_file() and (run / "derived.json").is_file()
+        assert bb.load_experiment(run / "experiment.toml").normal_law == (
+            "kelvin-voigt" if name == "kv" else "hunt-crossley")
+    assert main(["report", str(out / "models" / "hc")]) == 0
+
+
+def test_demo_kharaz(tmp_path):
+    """`bouncebayes demo --campaign kharaz`: the whole job on the bundled measurements (a
+    coarse grid here) recovers mu between 0.08 and 0.10 with the spring model."""
+    import json
+
+    from bouncebayes.cli import main
+
+    out = tmp_path / "k"
+    assert main(["demo", "--campaign", "kharaz", "--out", str(out), "--sampler", "grid",
+                 "--grid-points", "24", "--draws", "300"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert 0.08 < s["parameters"]["mu"]["mean"] < 0.10
+    assert s["experiment"]["tangential"] == "mindlin"
+    derived = json.loads((out / "derived.json").read_text())
+    assert 0.08 < derived["quantities"]["friction_coefficient"]["median"] < 0.10

@@ -113,7 +113,7 @@ def _page(comparison, figure: Path, provenance: dict, run_reports: dict[str, str
                           "stacking weight"]),
         "<h2>Settings</h2>",
         f"<p>Every model: likelihood {s['likelihood']}, model discrepancy {s['discrepancy']}, "
-        f"seed {s['seed']}. {html.escape(s['why'])}.</p>",
+        f"seed {s['seed']}. Why: {html.escape(s['why'])}.</p>",
         "<h2>Figure</h2>",
         f"<figure><img src=\"data:image/png;base64,{image}\" alt=\"{html.escape(CAPTION)}\">"
         f"<figcaption>{html.escape(CAPTION)}</figcaption></figure>",
