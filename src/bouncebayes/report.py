@@ -282,7 +282,8 @@ def _derived_section(folder: str | Path) -> list[str]:
     if d is None:
         return []
     rows = [[name.replace("_", " "), q["unit"] or "-", f"{q['median']:.4g}",
-             f"[{q['ci90'][0]:.4g}, {q['ci90'][1]:.4g}]", q["definition"]]
+             f"[{q['ci90'][0]:.4g}, {q['ci90'][1]:.4g}]" if q["ci90"][0] < q["ci90"][1]
+             else "none: set by fixed values of the experiment file", q["definition"]]
             for name, q in d["quantities"].items()
             if "grid" not in q and q.get("median") is not None]
     curves = ", ".join(f"{n.replace('_', ' ')} against {q['grid_name'].replace('_', ' ')}"

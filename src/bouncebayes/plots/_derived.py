@@ -23,6 +23,17 @@ def _values(q: dict, key: str, scale: float) -> np.ndarray:
     return np.array([np.nan if v is None else v * scale for v in q[key]], dtype=float)
 
 
+def _readable_y(ax, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Plain tick labels, and a visible range where the curve is flat (a restitution fixed by
+    the experiment file is the same at every speed to 1e-12)."""
+    ax.ticklabel_format(axis="y", useOffset=False)
+    top, bottom = np.nanmax(hi), np.nanmin(lo)
+    if np.isfinite(top) and top - bottom < 1e-3 * max(abs(top), 1e-12):
+        middle = 0.5 * (top + bottom)
+        half = 0.01 * max(abs(middle), 1e-12)
+        ax.set_ylim(middle - half, middle + half)
+
+
 @styled
 def plot_derived(derived: dict) -> Figure:
     """Four panels: normal restitution and contact time against the impact speed (head-on),
@@ -36,6 +47,8 @@ def plot_derived(derived: dict) -> Figure:
     for ax, (name, label, scale, span) in zip(axes.ravel(), PANELS, strict=True):
         q = derived["quantities"][name]
         x = np.asarray(q["grid"], dtype=float)
+        if name == "contact_time" and np.nanmax(_values(q, "q95", 1.0)) < 1e-3:
+            label, scale = "contact time (µs)", 1e6  # a hard ball's microseconds
         lo, mid, hi = (_values(q, k, scale) for k in ("q05", "median", "q95"))
         lo_m, hi_m = measured[span]
         ax.axvspan(lo_m - 0.01 * (x[-1] - x[0]) if lo_m == hi_m else lo_m,
@@ -48,6 +61,7 @@ def plot_derived(derived: dict) -> Figure:
                       else f"incidence angle from the normal (deg), at "
                            f"{derived['reference_speed_m_s']:.3g} m/s")
         ax.set_ylabel(label)
+        _readable_y(ax, lo, hi)
         if span == "speeds":
             from matplotlib.ticker import NullFormatter, ScalarFormatter
 
