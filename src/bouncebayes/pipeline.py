@@ -26,10 +26,10 @@ TRAJECTORY_SUFFIXES = (".csv", ".txt")
 EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
 # what a run writes; anything else found in an earlier run folder is the user's, and kept
 RUN_ENTRIES = frozenset({"report.html", "summary.json", "posterior.nc", "grid.npz",
-                         "propagation.json", "propagation.npz", "derived.json", "figures",
-                         "tracking",
+                         "propagation.json", "propagation.npz", "figures", "tracking",
                          "trajectories", EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE})
 STAGES = ("data", "inference", "propagation", "figures", "report")
+RUN_ENTRIES |= {"derived.json"}  # the DEM-ready quantities (propagation.derive), a run's too
 
 
 @dataclass(frozen=True)
@@ -231,10 +231,10 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     write_outputs(result, stage)
     times["inference"] = time.perf_counter() - start
 
-    start = _stage(3, "propagation of the posterior (and its DEM-ready quantities)", log)
+    start = _stage(3, "propagation of the posterior", log)
     prop = propagate(result)
     write_propagation(prop, stage)
-    write_derived(derive(result), stage)
+    write_derived(derive(result), stage)  # DEM-ready quantities (derived.json)
     times["propagation"] = time.perf_counter() - start
     return result, prop
 
