@@ -197,6 +197,7 @@ def _cases():
     yield from _global_cases()
     yield from _others_cases()
     yield from _study_cases()
+    yield from _compare_cases()
 
 
 NOT_A_NUMBER = ("abc", "nan", "inf", "-inf", "1,5", "")
@@ -445,11 +446,51 @@ def _predict_cases():
                                          "{out}/p.csv"], f"table-{kind}.csv", ())
 
 
+def _compare_cases():
+    """``compare``: every case fails before the first model is inferred."""
+    base = ["compare", "{exp:with_models}", "{trials}", "--out", "{out}"]
+    yield "compare-no-models", ["compare", "{exp}", "{trials}", "--out", "{out}"], "exp.toml", ()
+    for value, culprit in (("nope", "--models"), ("kv", "--models"), ("kv,kv", "--models"),
+                           (",", "argument --models")):
+        yield f"compare--models={value}", [*base, "--models", value], culprit, ()
+    for option, values in {"--evidence": ("exact",), "--grid-points": ("3", "abc"),
+                           "--draws": ("10", "x"), "--live-points": ("5", "abc"),
+                           "--seed": ("-1",)}.items():
+        for value in values:
+            yield f"compare{option}={value}", [*base, option, value], option, ()
+    yield ("compare--evidence=grid-beyond-3", ["compare", "{exp:four_parameters}", "{trials}",
+                                               "--out", "{out}", "--evidence", "grid"],
+           "--evidence", ())
+    for kind in ("missing", "not_toml", "unknown_key", "folder"):
+        yield (f"compare-experiment-{kind}", ["compare", "{exp:%s}" % kind, "{trials}", "--out",
+                                              "{out}"], f"exp-{kind}.toml", ())
+    yield ("compare-experiment-bad-candidate", ["compare", "{exp:bad_candidate}", "{trials}",
+                                                "--out", "{out}"], "models.hc.normal", ())
+    for kind in ("missing", "empty", "text_cell", "angle_95", "binary"):
+        yield (f"compare-table-{kind}", ["compare", "{exp:with_models}", "{table:%s}" % kind,
+                                         "--out", "{out}"], f"table-{kind}.csv", ())
+    yield "compare-data-a-folder", ["compare", "{exp:with_models}", "{dir}", "--out", "{out}"], \
+        "emptydir", ()
+    for where, path in {"a_file": "{file}", "under_a_file": "{under}",
+                        "read_only": "{ro}/out"}.items():
+        yield (f"compare-out-{where}", ["compare", "{exp:with_models}", "{trials}", "--out",
+                                        path], "--out", ())
+    yield ("compare-out-not-a-comparison", ["compare", "{exp:with_models}", "{trials}", "--out",
+                                            "{root}/in"], "not a bouncebayes comparison", ())
+
+
+_MODELS = ("\n[models.kv]\n\n[models.hc]\nnormal = \"hunt-crossley\"\n"
+           "[models.hc.parameters.eta]\nlow = 0.0\nhigh = 0.2\n")
 # inputs of the cases other branches own (not in the tables every command is tried with)
 OTHERS_EXPERIMENTS = {
     "modulus_prior": EXPERIMENT_TEXT + (
         "\n[parameters.youngs_modulus]\nprior = \"uniform\"\nlow = 0.0\nhigh = 1e7\n"),
-    "huge_prior": _edit(r"^high = 5.0$", "high = 1e300")}
+    "huge_prior": _edit(r"^high = 5.0$", "high = 1e300"),
+    "with_models": EXPERIMENT_TEXT + _MODELS,
+    "bad_candidate": EXPERIMENT_TEXT + _MODELS.replace('"hunt-crossley"', '"hertz"'),
+    "four_parameters": EXPERIMENT_TEXT + _MODELS + (
+        "[models.kv.parameters.youngs_modulus]\nprior = \"lognormal\"\nmedian = 5e6\n"
+        "sd_log = 0.3\n[models.kv.parameters.spin]\nlow = -10.0\nhigh = 10.0\n")}
 _rows = (DEMO / "trials.csv").read_text().splitlines()
 _head = next(i for i, r in enumerate(_rows) if not r.startswith("#"))
 OTHERS_TABLES = {

@@ -12,13 +12,13 @@ from bouncebayes.cli import main
 from bouncebayes.pipeline import data_kind
 
 FIGURES = ("data", "joint_posterior", "marginals", "trajectories", "predictive", "forces",
-           "contact_time", "residuals", "diagnostics")
+           "contact_time", "residuals", "derived", "diagnostics")
 
 
 def test_run_writes_every_output(small_run):
     f = small_run.folder
     for name in ("posterior.nc", "summary.json", "propagation.json", "propagation.npz",
-                 "report.html", "experiment.toml", "trials.csv", "truth.json"):
+                 "derived.json", "report.html", "experiment.toml", "trials.csv", "truth.json"):
         assert (f / name).is_file(), name
     for key in FIGURES:
         png = f / "figures" / f"{key}.png"
@@ -35,6 +35,7 @@ def test_figures_in_svg_on_request(small_run, tmp_path):
     from bouncebayes.report import load_result, load_truth, make_figures
 
     result, prop = load_result(small_run.folder), load_propagation(small_run.folder)
+    shutil.copy(small_run.folder / "derived.json", tmp_path)  # figures read it where drawn
     written = make_figures(result, prop, tmp_path, load_truth(small_run.folder),
                            formats=("png", "svg"))
     assert [k for k, _ in written] == list(FIGURES)
@@ -67,7 +68,8 @@ def test_report_is_self_contained_and_complete(small_run):
         assert p["paper_form"] in page
     for text in ("Likelihood gaussian", "Sampler mh", "Provenance", "sha256", "true value",
                  "Diagnostics and warnings", "What the posterior predicts", "Figure 8.",
-                 "Standardised residuals", "not dropped"):
+                 "Standardised residuals", "not dropped", "DEM-ready quantities",
+                 "Where these transfer", "linear normal stiffness"):
         assert text in page, text
 
 
@@ -77,9 +79,14 @@ def test_report_command_rebuilds_from_the_files(small_run, tmp_path):
     (copy / "report.html").unlink()
     shutil.rmtree(copy / "figures")
     (copy / "propagation.json").unlink()  # missing propagation: computed again
+    (copy / "derived.json").unlink()  # a run folder from before derived.json: computed
     assert main(["report", str(copy)]) == 0
     assert (copy / "report.html").is_file() and (copy / "figures" / "forces.png").is_file()
-    assert (copy / "propagation.json").is_file()
+    assert (copy / "propagation.json").is_file() and (copy / "figures" / "derived.png").is_file()
+    again = json.loads((copy / "derived.json").read_text())
+    assert again["quantities"] == json.loads(
+        (small_run.folder / "derived.json").read_text())["quantities"]  # same seed, same draws
+    assert "provenance" in again
 
 
 def test_report_of_a_folder_that_is_not_a_run(tmp_path, capsys):

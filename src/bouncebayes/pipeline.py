@@ -30,6 +30,7 @@ RUN_FILES = ("posterior.nc", "summary.json", EXPERIMENT_FILE, TRIALS_FILE)
 RUN_ENTRIES = frozenset({*RUN_FILES, "report.html", "grid.npz", "propagation.json",
                          "propagation.npz", "figures", "tracking", "trajectories", TRUTH_FILE})
 STAGES = ("data", "inference", "propagation", "figures", "report")
+RUN_ENTRIES |= {"derived.json"}  # the DEM-ready quantities (propagation.derive), a run's too
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,7 @@ class RunOutcome:
     table: str
     verdict: str
     stage_seconds: dict
+    result: Any = None  #: the InferenceResult (``bouncebayes compare`` reads its evidence)
 
 
 def video_inputs(folder: Path) -> list[Path]:
@@ -201,7 +203,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     from .inference import format_table
 
     return RunOutcome(out, out / report.name, format_table(result), prop.match["verdict"],
-                      times)
+                      times, result)
 
 
 def _stage(k: int, name: str, log) -> float:
@@ -214,7 +216,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     """Stages 1-3: the trial table, the posterior, its propagation (written into ``stage``)."""
     from .data import load_experiment
     from .inference import infer, write_outputs
-    from .propagation import propagate, write_propagation
+    from .propagation import derive, propagate, write_derived, write_propagation
 
     start = _stage(1, "data and kinematics", log)
     experiment = load_experiment(experiment_path)
@@ -233,6 +235,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     start = _stage(3, "propagation of the posterior", log)
     prop = propagate(result, progress=settings["progress"])
     write_propagation(prop, stage)
+    write_derived(derive(result), stage)  # DEM-ready quantities (derived.json)
     times["propagation"] = time.perf_counter() - start
     return result, prop
 
@@ -300,6 +303,7 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
             log("propagating the posterior ...")
             prop = propagate(result, progress=progress)
             written += write_propagation(prop, stage).values()
+        written += _derived_if_missing(result, stage, log)
         log("figures ...")
         figures = make_figures(result, prop, stage, truth, formats=figure_formats,
                                progress=progress)
@@ -308,6 +312,16 @@ def report_folder(folder: str | Path, *, argv: Sequence[str] | None = None,
         for path in [*written, *(stage / "figures").rglob("*")]:
             stamp(path, record)
     return folder / report.name
+
+
+def _derived_if_missing(result, stage: Path, log) -> list[Path]:
+    """``derived.json`` for a run folder that has none (written before it existed)."""
+    from .propagation import derive, load_derived, write_derived
+
+    if load_derived(stage) is not None:
+        return []
+    log("DEM-ready quantities ...")
+    return [write_derived(derive(result), stage)]
 
 
 def _run_provenance(folder: Path) -> dict | None:
@@ -359,7 +373,7 @@ def _warm_once(demo, out: Path, likelihood: str, sampler: str, config: Any) -> N
     experiment = load_experiment(demo.experiment)
     out.mkdir(parents=True)
     if (likelihood, sampler) == _WARMUP_CASES[0]:  # kinematics and the ODE path once
-        trial_table(demo.trajectories, experiment, out / TRIALS_FILE, log=lambda m: None)
+        trial_table(demo.data, experiment, out / TRIALS_FILE, log=lambda m: None)
         trials = load_trials(out / TRIALS_FILE, experiment)
     else:
         trials = load_trials(demo.trials, experiment)

@@ -49,6 +49,11 @@ CAPTIONS = {
                  "of the trials inside the darker ±2 band and nearly all inside ±3, with no "
                  "trend against the incidence; trends or many trials outside point to a "
                  "misfit.",
+    "derived": "DEM-ready quantities (derived.json): the posterior median and 90 % band of the "
+               "normal restitution and the contact time of head-on impacts against the impact "
+               "speed, and of the tangential restitution and rebound spin against the incidence "
+               "angle at the campaign's speed (no incident spin, no gravity); shaded: the range "
+               "the data measured. Outside it the curves are the contact law's extrapolation.",
     "diagnostics": "Sampler diagnostics: the trace of every chain and the histograms of the "
                    "ranks of each chain's draws among all draws (flat when the chains agree).",
 }
@@ -254,8 +259,44 @@ def figure_makers(result: InferenceResult, prop, folder: str | Path,
         "forces": lambda: plots.plot_forces(prop),
         "contact_time": lambda: plots.plot_contact_time(prop),
         "residuals": lambda: _residual_figure(result),
+        "derived": lambda: _derived_figure(folder),
         "diagnostics": lambda: plots.plot_diagnostics(result),
     }
+
+
+def _derived_figure(folder: str | Path):
+    """The DEM-ready quantities' bands, where the run folder has derived.json."""
+    from . import plots
+    from .propagation import load_derived
+
+    derived = load_derived(folder)
+    return None if derived is None else plots.plot_derived(derived)
+
+
+def _derived_section(folder: str | Path) -> list[str]:
+    """The DEM-ready numbers with their definitions and where they transfer (derived.json)."""
+    from .propagation import load_derived
+
+    d = load_derived(folder)
+    if d is None:
+        return []
+    rows = [[name.replace("_", " "), q["unit"] or "-", f"{q['median']:.4g}",
+             f"[{q['ci90'][0]:.4g}, {q['ci90'][1]:.4g}]" if q["ci90"][0] < q["ci90"][1]
+             else "none: set by fixed values of the experiment file", q["definition"]]
+            for name, q in d["quantities"].items()
+            if "grid" not in q and q.get("median") is not None]
+    curves = ", ".join(f"{n.replace('_', ' ')} against {q['grid_name'].replace('_', ' ')}"
+                       for n, q in d["quantities"].items() if "grid" in q)
+    transfer = next(iter(d["quantities"].values()))["transfer"]
+    cautions = "".join(f"<p><b>Caution:</b> {html.escape(c)}.</p>" for c in d["cautions"])
+    return ["<h2>DEM-ready quantities</h2>",
+            f"<p>What a simulation code takes, from {d['n_draws']} posterior draws "
+            f"(<code>derived.json</code>; {html.escape(d['conditions'])}; reference speed "
+            f"{d['reference_speed_m_s']:.3g} m/s). Curves in <code>derived.json</code> and the "
+            f"figure: {html.escape(curves)}.</p>", cautions,
+            _table(rows, ["quantity", "unit", "median", "90 % interval", "definition"]),
+            f"<p><b>Where these transfer.</b> Every number {html.escape(transfer)}. The "
+            f"friction coefficient holds for this pair of materials and their finish.</p>"]
 
 
 def _residual_figure(result: InferenceResult):
@@ -444,7 +485,8 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
     sections = [f"<h1>bouncebayes report: {html.escape(e.name)}</h1>",
                 f"<p class='meta'>{html.escape(e.description)}</p>",
                 *_result_section(result, truth), *_experiment_section(result),
-                *_prediction_section(prop_summary), *_figures_section(figures),
+                *_prediction_section(prop_summary), *_derived_section(folder),
+                *_figures_section(figures),
                 *_provenance_section(result, provenance)]
     page = (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>bouncebayes: "
             f"{html.escape(e.name)}</title><style>{CSS}</style></head><body>"

@@ -40,7 +40,7 @@ COMMANDS = (
     _Command("simulate", "._simulate"), _Command("synth", "._synth"),
     _Command("track", "._track"), _Command("kinematics", "._kinematics"),
     _Command("infer", "._infer"), _Command("run", "._run"), _Command("report", "._report"),
-    _Command("predict", "._predict"),
+    _Command("predict", "._predict"), _Command("compare", "._compare"),
     _Command("demo", "._run", "add_demo_arguments", "run_demo", "DEMO_"),
     _Command("warmup", "._warmup"), _Command("design", "._design"),
     _Command("sbc", "._sbc"), _Command("batch", "._batch"),

@@ -1,6 +1,7 @@
 """Experiment description (TOML), priors, and the file formats: trial tables and trajectories
 (CSV), each with one schema, one writer and one reader."""
 
+from ._experiment import Candidate as Candidate
 from ._experiment import Experiment as Experiment
 from ._experiment import Incidence as Incidence
 from ._experiment import load_experiment as load_experiment
@@ -32,11 +33,14 @@ from ._synth import Campaign as Campaign
 from ._synth import SynthesisError as SynthesisError
 from ._synth import synthesize as synthesize
 from ._synth import write_campaign as write_campaign
+from ._demo import CAMPAIGNS as CAMPAIGNS
 from ._demo import DemoCampaign as DemoCampaign
 from ._demo import demo_campaign as demo_campaign
 
 __all__ = [
+    "CAMPAIGNS",
     "Campaign",
+    "Candidate",
     "demo_campaign",
     "DemoCampaign",
     "Experiment",

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import difflib
 import hashlib
 import math
 import os
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +20,9 @@ from .._validate import range_text
 from ..model import (Ball, Domain, damping_unit, mindlin_stiffness_ratio, model_parameters,
                      parameter_domain)
 from ._priors import LogNormal, Normal, Prior, Uniform
-from ._schema import OPTIONAL, PARAMETERS, PRIOR_KEYS, REQUIRED_SECTIONS, SECTIONS, Key
+from ._schema import (CANDIDATE_FIXED, CANDIDATE_KEYS, CANDIDATE_TABLES, OPTIONAL, PARAMETERS,
+                      PRIOR_KEYS, REQUIRED_SECTIONS, SECTIONS, Key)
+from ._toml import dumps
 
 
 @dataclass(frozen=True)
@@ -60,6 +65,9 @@ class Experiment:
     tangential: str = "none"  #: tangential compliance: none, mindlin or linear
     inference: MappingProxyType = field(default_factory=lambda: MappingProxyType(
         {k: v.default for k, v in SECTIONS["inference"].items()}))  #: [inference], filled
+    #: the candidate models of [models.NAME] (``bouncebayes compare``), by name, in file order
+    models: MappingProxyType = field(default_factory=lambda: MappingProxyType({}),
+                                     compare=False)
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -128,6 +136,24 @@ class Experiment:
         return self.fixed_value(name)
 
 
+@dataclass(frozen=True)
+class Candidate:
+    """A candidate model of [models.NAME]: the experiment with its own contact law and priors
+    (``experiment``), and that experiment as a whole TOML document of its own (``toml``), for
+    a run folder that ``bouncebayes report`` can reopen."""
+
+    name: str
+    description: str
+    experiment: Experiment
+    document: dict = field(repr=False, compare=False)
+
+    def toml(self) -> str:
+        """The candidate's experiment file."""
+        return dumps(self.document, header=f"candidate model {self.name!r} of "
+                     f"{self.experiment.source} (bouncebayes compare): that file with its "
+                     f"[models.{self.name}] table applied")
+
+
 def load_experiment(path: str | os.PathLike) -> Experiment:
     """Read and validate an experiment file; every problem names the key and what is allowed."""
     path = Path(path)
@@ -147,7 +173,7 @@ def load_experiment(path: str | os.PathLike) -> Experiment:
 def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -> Experiment:
     """Validate a parsed TOML document into an :class:`Experiment`."""
     p = _Parser(source)
-    p.check_keys(doc, SECTIONS.keys() | {"parameters"}, "", what="section")
+    p.check_keys(doc, SECTIONS.keys() | {"parameters", "models"}, "", what="section")
     for name in REQUIRED_SECTIONS:
         if name not in doc:
             raise InputFileError(source, f"missing section [{name}]", field=name)
@@ -158,7 +184,7 @@ def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -
                           inc["speed_sd_m_s"], inc["angle_sd_deg"], inc["spin_sd_rad_s"])
     priors = _priors(p, doc.get("parameters", {}), t["model"])
     _check_values_in_domain(p, t)
-    return Experiment(
+    experiment = Experiment(
         name=t["experiment"]["name"], description=t["experiment"]["description"], ball=ball,
         inclination=t["surface"]["inclination_deg"], incidence=incidence,
         normal_law=t["model"]["normal"], gravity=t["model"]["gravity_m_s2"],
@@ -166,6 +192,9 @@ def parse_experiment(doc: dict, *, source: str = "<string>", sha256: str = "") -
         priors=MappingProxyType(priors), trajectories=MappingProxyType(t["trajectories"]),
         synth=MappingProxyType(t["synth"]), source=source, text_sha256=sha256,
         tangential=t["model"]["tangential"], inference=MappingProxyType(t["inference"]))
+    candidates = _candidates(p, doc, experiment)
+    return dataclasses.replace(experiment, models=MappingProxyType(candidates)) if candidates \
+        else experiment
 
 
 class _Parser:
@@ -251,8 +280,9 @@ def _priors(p: _Parser, table: Any, model: dict) -> dict[str, Prior]:
     return {name: _prior(p, name, spec, model["normal"]) for name, spec in table.items()}
 
 
-def _prior(p: _Parser, name: str, spec: Any, normal_law: str) -> Prior:
-    path = f"parameters.{name}"
+def _prior(p: _Parser, name: str, spec: Any, normal_law: str, prefix: str = "parameters"
+           ) -> Prior:
+    path = f"{prefix}.{name}"
     if not isinstance(spec, dict):
         raise p.error(path, f"must be a table [{path}] with a prior; got {_kind(spec)}")
     kind = spec.get("prior", "uniform")
@@ -273,6 +303,98 @@ def _prior(p: _Parser, name: str, spec: Any, normal_law: str) -> Prior:
         prior = LogNormal(v["median"], v["sd_log"])
     _check_prior_domain(p, path, name, kind, prior, parameter_domain(name, normal_law))
     return prior
+
+
+# ------------------------------------------------------------ [models.NAME] (compare)
+
+_CANDIDATE_NAME = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def _candidates(p: _Parser, doc: dict, base: Experiment) -> dict[str, Candidate]:
+    """The candidate models of [models.NAME], each checked with its key paths."""
+    table = doc.get("models", {})
+    if not isinstance(table, dict):
+        raise p.error("models", f"must hold tables [models.NAME]; got {_kind(table)}")
+    out = {}
+    for name, spec in table.items():
+        if not _CANDIDATE_NAME.fullmatch(name):
+            raise p.error(f"models.{name}", "a candidate's name may hold letters, digits, `-` "
+                                            "and `_` only (it names a folder)")
+        if not isinstance(spec, dict):
+            raise p.error(f"models.{name}", f"must be a table [models.{name}]; got "
+                                            f"{_kind(spec)}")
+        out[name] = _candidate(p, doc, name, spec, base)
+    return out
+
+
+def _candidate(p: _Parser, doc: dict, name: str, spec: dict, base: Experiment) -> Candidate:
+    """One candidate: its own keys checked where they are, then the merged document parsed."""
+    path = f"models.{name}"
+    p.check_keys(spec, set(SECTIONS["model"]) | set(CANDIDATE_KEYS)
+                 | {CANDIDATE_FIXED, *CANDIDATE_TABLES}, path)
+    model = {k: p.value(f"{path}.{k}", spec, k, s) for k, s in SECTIONS["model"].items()
+             if k in spec}
+    merged = copy.deepcopy({k: v for k, v in doc.items() if k != "models"})
+    merged["model"] = {**merged.get("model", {}), **model}
+    law = {k: merged["model"].get(k, SECTIONS["model"][k].default)
+           for k in ("normal", "tangential")}
+    merged["contact"] = {**merged.get("contact", {}), **_candidate_contact(p, spec, path)}
+    merged["parameters"] = _candidate_priors(p, doc, spec, path, law)
+    description = p.value(f"{path}.description", spec, "description",
+                          CANDIDATE_KEYS["description"])
+    merged["experiment"] = {**merged.get("experiment", {}),
+                            "name": f"{base.name} [model {name}]"}
+    if description:
+        merged["experiment"]["description"] = description
+    try:
+        experiment = parse_experiment(merged, source=p.source)
+    except InputFileError as exc:
+        raise InputFileError(exc.path, f"{exc.reason} (for the candidate model [{path}], "
+                                       f"which takes this value from the file's other tables)",
+                             line=exc.line, field=exc.field) from None
+    return Candidate(name, description, experiment, merged)
+
+
+def _candidate_contact(p: _Parser, spec: dict, path: str) -> dict:
+    table = spec.get("contact", {})
+    if not isinstance(table, dict):
+        raise p.error(f"{path}.contact", f"must be a table [{path}.contact]; got "
+                                         f"{_kind(table)}")
+    p.check_keys(table, SECTIONS["contact"], f"{path}.contact")
+    return {k: p.value(f"{path}.contact.{k}", table, k, SECTIONS["contact"][k]) for k in table}
+
+
+def _candidate_priors(p: _Parser, doc: dict, spec: dict, path: str, law: dict) -> dict:
+    """The candidate's [parameters]: the file's for the parameters its law has, less ``fixed``,
+    with its own added or replacing them."""
+    used = model_parameters(law["normal"], law["tangential"])
+    base = doc.get("parameters", {}) if isinstance(doc.get("parameters", {}), dict) else {}
+    fixed = spec.get(CANDIDATE_FIXED, [])
+    if not (isinstance(fixed, list) and all(isinstance(f, str) for f in fixed)):
+        raise p.error(f"{path}.{CANDIDATE_FIXED}", f"must be an array of parameter names; got "
+                                                   f"{_kind(fixed)}")
+    for f in fixed:
+        if f not in base:
+            raise p.error(f"{path}.{CANDIDATE_FIXED}", f"{f!r} is not inferred in [parameters] "
+                                                       f"(which has {', '.join(base) or 'none'})"
+                                                       f"; only those can be kept fixed")
+    own = spec.get("parameters", {})
+    if not isinstance(own, dict):
+        raise p.error(f"{path}.parameters", f"must hold tables [{path}.parameters.NAME]; got "
+                                            f"{_kind(own)}")
+    p.check_keys(own, PARAMETERS, f"{path}.parameters", what="parameter")
+    for name, prior in own.items():
+        if name not in used:
+            raise p.error(f"{path}.parameters.{name}", f"not a parameter of this candidate's "
+                          f"law (normal = {law['normal']!r}, tangential = "
+                          f"{law['tangential']!r}), whose parameters are {', '.join(used)}")
+        _prior(p, name, prior, law["normal"], prefix=f"{path}.parameters")
+    out = {k: v for k, v in base.items() if k in used and k not in fixed} | own
+    if not out:
+        raise p.error(path, "this candidate infers nothing: its law has none of the parameters "
+                            "of [parameters] (or `fixed` keeps them all); give it a "
+                            f"[{path}.parameters.NAME] prior")
+    return out
 
 
 # Values of the file that are inputs of the model: key path -> the model's input name.

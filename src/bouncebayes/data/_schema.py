@@ -148,6 +148,19 @@ SECTIONS: dict[str, dict[str, Key]] = {
 }
 REQUIRED_SECTIONS = ("ball", "incidence")
 
+# ---------------------------------------------------------------- [models.NAME] (compare)
+#: The keys of a candidate model's table [models.NAME] (``bouncebayes compare``), besides the
+#: [model] keys it overrides and its sub-tables [models.NAME.contact] and
+#: [models.NAME.parameters.X].
+CANDIDATE_KEYS: dict[str, Key] = {
+    "description": Key(str, "what the candidate stands for, shown in the comparison", "",
+                       default=""),
+}
+#: ``fixed``: an array of names of parameters that [parameters] infers and the candidate keeps
+#: at their [contact] (or [models.NAME.contact]) values.
+CANDIDATE_FIXED = "fixed"
+CANDIDATE_TABLES = ("contact", "parameters")
+
 # The inferable parameters: unit, and the physical domain a prior must stay inside.
 PARAMETERS: dict[str, tuple[str, float]] = {
     "mu": ("", 0.0),
@@ -218,4 +231,27 @@ def reference_markdown() -> str:
                                  else "") + ")" for n, k in keys.items())
         lines.append(f"| `prior = \"{kind}\"`{' (default)' if kind == 'uniform' else ''} | "
                      f"{described} |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _candidates_markdown()) + "\n"
+
+
+_CANDIDATES_TEXT = (
+    "Candidate models for `bouncebayes compare` (docs/comparison.md), one table per model; "
+    "NAME is letters, digits, `-` and `_`. Each candidate is the experiment above with its "
+    "own contact law and priors: its keys override [model] (`normal`, `tangential`, "
+    "`gravity_m_s2`), [models.NAME.contact] overrides [contact] values, and "
+    "[models.NAME.parameters.X] adds a prior or replaces the one of [parameters.X]. A prior of "
+    "[parameters] for a parameter the candidate's law does not have is left out for it, and "
+    "`fixed` keeps inferred parameters fixed. `bouncebayes run` and `infer` use [model] and "
+    "[parameters] and ignore [models] (after checking it).")
+
+
+def _candidates_markdown() -> list[str]:
+    rows = [f"| `{k}` | {SECTIONS['model'][k].doc} |" for k in SECTIONS["model"]]
+    rows += [f"| `{k}` | {v.doc} |" for k, v in CANDIDATE_KEYS.items()]
+    rows += [f"| `{CANDIDATE_FIXED}` | an array of parameter names inferred in [parameters] "
+             f"that this candidate keeps fixed at its [contact] value (or Mindlin's ratio), "
+             f"e.g. `[\"tangential_stiffness_ratio\"]` |",
+             "| [models.NAME.contact] | values of [contact] keys for this candidate |",
+             "| [models.NAME.parameters.X] | a prior of this candidate (as [parameters.X]) |"]
+    return ["", "## [models.NAME]", "", _CANDIDATES_TEXT, "", "| key | meaning |", "|---|---|",
+            *rows]

@@ -46,17 +46,23 @@ class GridRun:
     exact_sd: tuple[float, ...]
     cells_per_sd: tuple[float, ...]
     grid: GridDensity | None = None
+    #: numerical uncertainty of ``log_evidence``: the largest change over the 2^d interleaved
+    #: sub-grids of twice the spacing (an upper estimate of the full grid's error; NaN: unknown)
+    log_evidence_se: float = float("nan")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"log_evidence": self.log_evidence, "grid_points": self.grid_points,
+        return {"log_evidence": self.log_evidence, "log_evidence_se": self.log_evidence_se,
+                "grid_points": self.grid_points,
                 "box": [list(b) for b in self.box], "exact_mean": list(self.exact_mean),
                 "exact_sd": list(self.exact_sd), "cells_per_sd": list(self.cells_per_sd)}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> GridRun:
+        se = d.get("log_evidence_se")
         return cls(float(d["log_evidence"]), int(d["grid_points"]),
                    tuple(tuple(b) for b in d["box"]), tuple(d["exact_mean"]),
-                   tuple(d["exact_sd"]), tuple(d["cells_per_sd"]))
+                   tuple(d["exact_sd"]), tuple(d["cells_per_sd"]),
+                   log_evidence_se=float("nan") if se is None else float(se))
 
     def warnings(self, summaries: list[Any]) -> list[str]:
         """A grid too coarse for the posterior (draws are independent: no ESS check)."""
@@ -124,9 +130,25 @@ def _run(lp, density, centres, steps, box, n) -> GridRun:
         mu = float(np.sum(p * u))
         mean.append(lo + width * mu)
         sd.append(width * math.sqrt(max(float(np.sum(p * (u - mu) ** 2)), 0.0)))
-    return GridRun(float(logsumexp(lp) + math.log(volume)), n,
-                   tuple((float(a), float(b)) for a, b in box), tuple(mean), tuple(sd),
-                   floats(np.array(sd) / steps), GridDensity(centres, density, marginals))
+    log_z = float(logsumexp(lp) + math.log(volume))
+    return GridRun(log_z, n, tuple((float(a), float(b)) for a, b in box), tuple(mean),
+                   tuple(sd), floats(np.array(sd) / steps),
+                   GridDensity(centres, density, marginals),
+                   _evidence_error(lp.reshape((n,) * dim), volume, log_z))
+
+
+def _evidence_error(lp: np.ndarray, volume: float, log_z: float) -> float:
+    """The largest change of the log evidence over the 2^d interleaved sub-grids of twice the
+    spacing (each a quadrature rule of its own over the same box): where the posterior is
+    resolved they agree with the full grid, and the full grid is closer still."""
+    dim = lp.ndim
+    out = 0.0
+    for offsets in np.ndindex(*(2,) * dim):
+        sub = lp[tuple(slice(o, None, 2) for o in offsets)]
+        if not np.isfinite(sub).any():
+            return float("inf")
+        out = max(out, abs(float(logsumexp(sub)) + math.log(volume * 2**dim) - log_z))
+    return out
 
 
 def _cells(centres, flat: np.ndarray) -> np.ndarray:

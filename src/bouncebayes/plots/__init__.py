@@ -7,9 +7,11 @@ drawn at the edge and counted, never dropped silently.
 """
 
 from ._bounce import plot_bounce as plot_bounce
+from ._comparison import plot_comparison as plot_comparison
 from ._data import measured_density as measured_density
 from ._data import plot_data as plot_data
 from ._data import plot_predictive as plot_predictive
+from ._derived import plot_derived as plot_derived
 from ._figure import FIGURE_FORMATS as FIGURE_FORMATS
 from ._figure import STYLE as STYLE
 from ._figure import save_figure as save_figure
@@ -24,7 +26,7 @@ from ._residuals import Residuals as Residuals
 from ._residuals import plot_residuals as plot_residuals
 from ._residuals import posterior_residuals as posterior_residuals
 
-__all__ = ["FIGURE_FORMATS", "STYLE", "Residuals", "measured_density", "plot_bounce", "plot_contact_time",
-           "plot_data", "plot_diagnostics", "plot_forces", "plot_joint_posterior",
+__all__ = ["FIGURE_FORMATS", "STYLE", "Residuals", "measured_density", "plot_bounce", "plot_comparison", "plot_contact_time",
+           "plot_data", "plot_derived", "plot_diagnostics", "plot_forces", "plot_joint_posterior",
            "plot_marginals", "plot_predictive", "plot_residuals", "plot_trajectories",
            "posterior_residuals", "robust_limits", "save_figure"]
