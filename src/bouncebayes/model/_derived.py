@@ -35,7 +35,8 @@ DEFAULT_ANGLES = np.arange(5.0, 90.0, 5.0)
 
 _TRANSFER = ("holds for this ball on this surface (this pair of materials, this ball's size and "
              "mass: a DEM particle of another size or another contact partner needs the law, "
-             "not the number); the data measured it at impact speeds {measured}, and "
+             "not the number); the data measured it at normal impact speeds {measured} (the "
+             "speed component along the normal, which sets the normal impact), and "
              "elsewhere it is the contact law's extrapolation, not a measurement")
 
 
@@ -187,8 +188,9 @@ def derived_quantities(ball: Ball = PAPER_BALL, values: Mapping | None = None, *
 
     ``reference_speed`` (m/s): the speed of the oblique curves and of the linear equivalence
     (the campaign's incident speed: the data hold there); ``speeds`` (m/s) and ``angles``
-    (deg): the curves' grids; ``measured_speeds``: (lowest, highest) impact speed of the data,
-    m/s, for the transfer notes (default: the reference speed). The names are the keys of
+    (deg): the curves' grids; ``measured_speeds``: (lowest, highest) normal impact speed of the
+    data (incident speed times the cosine of the incidence angle), m/s, for the transfer notes
+    (default: the reference speed). The names are the keys of
     ``DERIVED_QUANTITIES``, plus ``tangential_stiffness_ratio`` with a spring.
     """
     v_ref = check_scalar("reference_speed", reference_speed, unit="m/s", low=0.0,

@@ -64,7 +64,7 @@ def derive(result, *, n_draws: int = N_DERIVED, seed: int | None = None) -> dict
     normal = speeds * np.cos(np.radians(np.asarray(t.incidence_angle, dtype=float)))
     found = derived_quantities(e.ball, values, reference_speed=v_ref, normal_law=e.normal_law,
                                tangential=e.tangential,
-                               measured_speeds=(float(speeds.min()), float(speeds.max())))
+                               measured_speeds=(float(normal.min()), float(normal.max())))
     quantities = {}
     for name, q in found.items():
         record: dict[str, Any] = {"unit": q.unit, "definition": q.definition,
