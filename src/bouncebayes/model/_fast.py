@@ -38,6 +38,7 @@ import math
 from dataclasses import dataclass
 from functools import lru_cache
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -83,7 +84,8 @@ LAW_POWER = {"kelvin-voigt": 3.0, "hunt-crossley": 1.0, "linear-dashpot": 1.0,
 # Fallback reasons (per element), 0 = closed form applied.
 FB_NONE, FB_DOMAIN, FB_SLOPE, FB_ODE = 0, 1, 2, 3
 SERIAL_MAX = 4096  # batches up to this size run on one thread (no parallel start-up cost)
-CHUNK = 256  # elements per parallel task: work arrays are allocated once per chunk
+CHUNK = 256  # elements per parallel task of the sampler kernels
+TASK = 16 * 256  # elements per parallel task of full results: sixteen blocks of bounce_range
 
 
 @dataclass(frozen=True, eq=False)
@@ -570,13 +572,14 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
 @njit(cache=True, parallel=True)
 def bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max, gamma_max,
                     kv, out, status, rolling, flags, fallback):
-    """:func:`bounce_range` over all elements, in parallel chunks; returns the counts."""
+    """:func:`bounce_range` over all elements, in parallel tasks of ``TASK`` elements handed
+    out one at a time (:func:`bounces`); returns the counts."""
     n = status.shape[0]
-    n_chunks = (n + CHUNK - 1) // CHUNK
+    n_chunks = (n + TASK - 1) // TASK
     counts = np.zeros((n_chunks, 2), dtype=np.int64)
     for c in prange(n_chunks):
         a, b = bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
-                            gamma_max, kv, c * CHUNK, min(n, (c + 1) * CHUNK), out, status,
+                            gamma_max, kv, c * TASK, min(n, (c + 1) * TASK), out, status,
                             rolling, flags, fallback)
         counts[c, 0] = a
         counts[c, 1] = b
@@ -593,8 +596,14 @@ def bounces(values, ball, bounds, closed_form: bool, tables, out, status, rollin
     if status.size <= SERIAL_MAX:
         return bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
                             gamma_max, kv, 0, status.size, out, status, rolling, flags, fallback)
-    return bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max,
-                           gamma_max, kv, out, status, rolling, flags, fallback)
+    # tasks handed out one at a time, not split evenly in advance: on a shared machine a
+    # thread that is held up no longer keeps the others waiting (and spinning) at the end
+    previous = numba.set_parallel_chunksize(1)
+    try:
+        return bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                               gamma_max, kv, out, status, rolling, flags, fallback)
+    finally:
+        numba.set_parallel_chunksize(previous)
 
 
 # --- conditions fixed, parameters varying (samplers) -------------------------------------------
