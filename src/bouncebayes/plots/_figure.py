@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import functools
 import os
+import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast
@@ -100,3 +102,55 @@ def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
         # zlib level 3: a third faster than the default 6, and as small for these images
         extra: dict[str, Any] = {"pil_kwargs": {"compress_level": 3}} if fmt == "png" else {}
         return write_with(path, lambda tmp: fig.savefig(tmp, format=fmt, **extra))
+
+
+def save_figures(files: list[tuple[Figure, list[Path]]], workers: int | None = None) -> None:
+    """Save each figure to each of its paths (:func:`save_figure`), rendering in ``workers``
+    processes (default: one per core, up to four; 1: in this process).
+
+    Rendering (text layout, rasterising, encoding) is most of a figure's cost and involves
+    only matplotlib, so the figures, drawn here, are rendered by forked copies of this process
+    (Linux only: elsewhere fork is unsafe or missing) as well as by this one, each taking its
+    share (the figures with most panels first, to the least loaded). The files are the same
+    bytes either way. A copy that fails leaves its figures to this process, which renders them
+    again and raises what goes wrong.
+    """
+    if workers is None:
+        workers = min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                      else os.cpu_count() or 1)
+    workers = max(1, min(workers, len(files)))
+    if workers == 1 or not sys.platform.startswith("linux"):
+        _save_all(files)
+        return
+    shares: list[list[tuple[Figure, list[Path]]]] = [[] for _ in range(workers)]
+    load = [0] * workers
+    for job in sorted(files, key=lambda job: -len(job[0].axes)):
+        k = load.index(min(load))
+        shares[k].append(job)
+        load[k] += len(job[0].axes) + 1
+    children = []
+    for share in shares[1:]:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # Python >= 3.12 on threads:
+            pid = os.fork()  # the copy runs no thread of the parent's (numba's, BLAS')
+        if pid == 0:  # pragma: no cover - the forked copy (its coverage is not collected)
+            code = 1
+            try:
+                _save_all(share)
+                code = 0
+            finally:
+                os._exit(code)
+        children.append((pid, share))
+    _save_all(shares[0])
+    for pid, share in children:
+        _, status = os.waitpid(pid, 0)
+        if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):
+            _save_all(share)
+
+
+def _save_all(files: list[tuple[Figure, list[Path]]]) -> None:
+    for fig, paths in files:
+        for path in paths:
+            save_figure(fig, path)
