@@ -10,7 +10,7 @@ has only two numbers: the damping number (``zeta = eta delta* / (m V)`` for Kelv
 ``chi = eta V`` for Hunt–Crossley) and the gravity number ``gamma = g cos(beta) delta* / V^2``.
 Its outcomes (restitution, contact time, peak force, overlaps, the impulse up to the force peak)
 are tabulated once per law by 2-D Chebyshev interpolation of tight ODE solutions (built in
-a fraction of a second at first use, cached per process). The rebound then follows in closed
+about half a CPU-second at first use, then kept on disk beside numba's cached kernels). The rebound then follows in closed
 form from the normal impulse ``P`` (docs/model.md): a ball that slides throughout loses
 ``mu P / m`` of tangential velocity; one whose slip reaches zero leaves rolling with
 ``U' = U - kappa/(1+kappa) s0``.
@@ -34,9 +34,11 @@ element is handed to the ODE solver (a ``fallback`` reason per element).
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -127,10 +129,69 @@ def _cheb_nodes(n: int) -> np.ndarray:
 
 @lru_cache(maxsize=None)
 def normal_table(law: str) -> NormalTable:
-    """Build (once per process) the table of a normal law from tight ODE solutions."""
+    """The table of a normal law (once per process): from the disk cache, else built from
+    tight ODE solutions (half a CPU-second) and cached on disk."""
     damping_max, gamma_max = DOMAIN[law]
     power = LAW_POWER[law]
     x_max = damping_max ** (1.0 / power)
+    cached = _load_cached(law)
+    if cached is not None:
+        return NormalTable(law, cached[0], cached[1], x_max, gamma_max, power)
+    table = _build_table(law, x_max, gamma_max, power)
+    _store_cached(law, table.coef, table.compression)
+    return table
+
+
+# Where a built table is kept, beside numba's cached kernels; its name holds a hash of every
+# source file the table depends on (and NumPy's version), so that any change rebuilds it.
+_TABLE_SOURCES = ("_fast.py", "_kernel.py", "_ode.py", "_arrays.py", "_laws.py", "_config.py",
+                  "_domain.py", "_closed_form.py")
+
+
+def _cache_path(law: str) -> Path:
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256(np.__version__.encode())
+    for name in _TABLE_SOURCES:
+        digest.update((here / name).read_bytes())
+    return here / "__pycache__" / f"table-{law}-{digest.hexdigest()[:16]}.npz"
+
+
+def _load_cached(law: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(main, compression) coefficients of the cached table, or None (none, or unreadable)."""
+    try:
+        with np.load(_cache_path(law)) as f:
+            coef, compression = f["coef"], f["compression"]
+    except (OSError, KeyError, ValueError):
+        return None
+    pieces = (COMPRESSION_PIECES, 2 * COMPRESSION_NODES[2]) + COMPRESSION_NODES[:2]
+    if coef.shape != (N_TABLE,) + TABLE_NODES or compression.shape != pieces:
+        return None
+    return coef, compression
+
+
+def _store_cached(law: str, coef: np.ndarray, compression: np.ndarray) -> None:
+    """Keep a built table on disk (atomically; nothing when the folder is not writable), and
+    remove the tables of earlier sources."""
+    from .._io import write_with
+
+    try:
+        path = _cache_path(law)
+        path.parent.mkdir(exist_ok=True)
+        write_with(path, lambda tmp: _save_npz(tmp, coef, compression))
+        for old in path.parent.glob(f"table-{law}-*.npz"):
+            if old != path:
+                old.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+def _save_npz(path: Path, coef: np.ndarray, compression: np.ndarray) -> None:
+    with open(path, "wb") as fh:
+        np.savez(fh, coef=coef, compression=compression)
+
+
+def _build_table(law: str, x_max: float, gamma_max: float, power: float) -> NormalTable:
+    """The table of a normal law from tight ODE solutions."""
     nx, ng = TABLE_NODES
     cx, cg = _cheb_nodes(nx), _cheb_nodes(ng)
     x, g = np.meshgrid(0.5 * x_max * (1 + cx), 0.5 * gamma_max * (1 + cg), indexing="ij")
