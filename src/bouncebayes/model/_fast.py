@@ -10,8 +10,9 @@ has only two numbers: the damping number (``zeta = eta delta* / (m V)`` for Kelv
 ``chi = eta V`` for Hunt–Crossley) and the gravity number ``gamma = g cos(beta) delta* / V^2``.
 Its outcomes (restitution, contact time, peak force, overlaps, the impulse up to the force peak)
 are tabulated once per law by 2-D Chebyshev interpolation of tight ODE solutions (built in
-about half a CPU-second at first use, then kept on disk beside numba's cached kernels). The rebound then follows in closed
-form from the normal impulse ``P`` (docs/model.md): a ball that slides throughout loses
+about half a CPU-second at first use, then kept on disk beside numba's cached kernels). The
+rebound then follows in closed form from the normal impulse ``P`` (docs/model.md): a ball
+that slides throughout loses
 ``mu P / m`` of tangential velocity; one whose slip reaches zero leaves rolling with
 ``U' = U - kappa/(1+kappa) s0``.
 
