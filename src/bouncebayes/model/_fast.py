@@ -12,9 +12,8 @@ Its outcomes (restitution, contact time, peak force, overlaps, the impulse up to
 are tabulated once per law by 2-D Chebyshev interpolation of tight ODE solutions (built in
 about half a CPU-second at first use, then kept on disk beside numba's cached kernels). The
 rebound then follows in closed form from the normal impulse ``P`` (docs/model.md): a ball
-that slides throughout loses
-``mu P / m`` of tangential velocity; one whose slip reaches zero leaves rolling with
-``U' = U - kappa/(1+kappa) s0``.
+that slides throughout loses ``mu P / m`` of tangential velocity; one whose slip reaches zero
+leaves rolling with ``U' = U - kappa/(1+kappa) s0``.
 
 Why a hand-written table: no library tabulates a parametrised ODE outcome with the variable
 change this one needs. The damping number enters through ``zeta^(1/3)`` for Kelvin–Voigt (the
