@@ -106,7 +106,8 @@ def save_figure(fig: Figure, path: str | os.PathLike) -> Path:
 
 def save_figures(files: list[tuple[Figure, list[Path]]], workers: int | None = None) -> None:
     """Save each figure to each of its paths (:func:`save_figure`), rendering in ``workers``
-    processes (default: one per core, up to four; 1: in this process).
+    processes (default: the environment variable ``BOUNCEBAYES_FIGURE_WORKERS``, else one per
+    core, up to four; 1: in this process).
 
     Rendering (text layout, rasterising, encoding) is most of a figure's cost and involves
     only matplotlib, so the figures, drawn here, are rendered by forked copies of this process
@@ -116,8 +117,7 @@ def save_figures(files: list[tuple[Figure, list[Path]]], workers: int | None = N
     again and raises what goes wrong.
     """
     if workers is None:
-        workers = min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
-                      else os.cpu_count() or 1)
+        workers = _default_workers()
     workers = max(1, min(workers, len(files)))
     if workers == 1 or not sys.platform.startswith("linux"):
         _save_all(files)
@@ -148,6 +148,18 @@ def save_figures(files: list[tuple[Figure, list[Path]]], workers: int | None = N
         _, status = os.waitpid(pid, 0)
         if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):
             _save_all(share)
+
+
+def _default_workers() -> int:
+    """``BOUNCEBAYES_FIGURE_WORKERS`` (a positive integer), else one per core, up to four."""
+    text = os.environ.get("BOUNCEBAYES_FIGURE_WORKERS", "").strip()
+    if text:
+        if not text.isdigit() or int(text) < 1:
+            raise ValueError(f"environment variable BOUNCEBAYES_FIGURE_WORKERS must be a "
+                             f"positive integer (processes rendering figures); got {text!r}")
+        return int(text)
+    return min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+               else os.cpu_count() or 1)
 
 
 def _save_all(files: list[tuple[Figure, list[Path]]]) -> None:
