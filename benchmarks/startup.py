@@ -5,7 +5,7 @@ bouncebayes.cli``), each the best of ``--repeats``:
 
 - ``help``: ``bouncebayes --help``, against the baseline of the same run ``help_baseline``: a
   process importing what every command imported before start-up was made lazy (OpenCV,
-  ArviZ, matplotlib, numba; issue 14 measured 4.8 s for ``--help`` then);
+  ArviZ, matplotlib, numba: 4.8 s for ``--help`` on this machine then);
 - ``demo``: ``bouncebayes demo`` into a temporary folder with a warm numba cache (one run
   first, untimed, compiles or loads the kernels), against ``demo_serial``, the same with the
   figures rendered in the main process only (``BOUNCEBAYES_FIGURE_WORKERS=1``).

@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import os
 import sys
+import threading
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -114,12 +115,18 @@ def save_figures(files: list[tuple[Figure, list[Path]]], workers: int | None = N
     (Linux only: elsewhere fork is unsafe or missing) as well as by this one, each taking its
     share (the figures with most panels first, to the least loaded). The files are the same
     bytes either way. A copy that fails leaves its figures to this process, which renders them
-    again and raises what goes wrong.
+    again and raises what goes wrong. With other (non-daemon) Python threads running,
+    everything is rendered here.
     """
     if workers is None:
         workers = _default_workers()
     workers = max(1, min(workers, len(files)))
-    if workers == 1 or not sys.platform.startswith("linux"):
+    # a fork copies only the calling thread: another thread could hold a lock the copy then
+    # waits on forever (matplotlib's renderer lock, say), so with any, render here; daemon
+    # threads are background helpers that draw nothing (tqdm's monitor of progress bars)
+    others = [t for t in threading.enumerate()
+              if t is not threading.current_thread() and not t.daemon]
+    if workers == 1 or not sys.platform.startswith("linux") or others:
         _save_all(files)
         return
     shares: list[list[tuple[Figure, list[Path]]]] = [[] for _ in range(workers)]
