@@ -295,7 +295,7 @@ def test_figures_of_a_posterior_whose_bounces_all_fail(run):
 
 def test_figure_workers_come_from_the_environment_or_the_cores(monkeypatch):
     """BOUNCEBAYES_FIGURE_WORKERS sets how many processes render figures (checked: a positive
-    integer); without it, one per core, up to four."""
+    integer); without it, one per idle core (cores + 1 - load average), up to four."""
     from bouncebayes.plots._figure import _default_workers
 
     monkeypatch.setenv("BOUNCEBAYES_FIGURE_WORKERS", "3")
@@ -305,4 +305,10 @@ def test_figure_workers_come_from_the_environment_or_the_cores(monkeypatch):
                                          r"integer \(processes rendering figures\); got '0'"):
         _default_workers()
     monkeypatch.delenv("BOUNCEBAYES_FIGURE_WORKERS")
-    assert 1 <= _default_workers() <= min(4, os.cpu_count() or 1)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2, 3, 4, 5}, raising=False)
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.1, 1.0, 1.0))
+    assert _default_workers() == 4  # six idle cores, capped
+    monkeypatch.setattr(os, "getloadavg", lambda: (4.2, 1.0, 1.0))
+    assert _default_workers() == 3  # 6 + 1 - 4.2 = 2.8 idle
+    monkeypatch.setattr(os, "getloadavg", lambda: (9.0, 1.0, 1.0))
+    assert _default_workers() == 1
