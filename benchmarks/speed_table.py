@@ -48,6 +48,8 @@ ROWS: tuple[tuple[str, str, str, Callable[[object], str], str, str | None], ...]
      "fast_ratio_to_ode_cpu"),
     ("ODE path against SciPy `solve_ivp` at the same accuracy", "forward", "ratio",
      _num(".0f", "x"), "300x", None),
+    ("ODE path against SciPy `solve_ivp`, CPU time", "forward", "ratio_cpu", _num(".0f", "x"),
+     "300x", None),
     ("tangentially compliant ODE path against SciPy", "forward_compliant", "ratio",
      _num(".0f", "x"), "300x", None),
     ("paper's MH run, gaussian likelihood, 55 trials (s, wall clock)", "inference",
