@@ -62,6 +62,7 @@ bench: $(STAMP)
 		case $$b in benchmarks/speed_table.py|benchmarks/sbc.py) continue;; esac; \
 		echo "== $$b"; OPENBLAS_NUM_THREADS=1 $(BIN)/python $$b || exit 1; \
 	done
+	OPENBLAS_NUM_THREADS=1 $(BIN)/python benchmarks/forward.py --compliant
 	$(BIN)/python benchmarks/speed_table.py
 
 clean:

@@ -5,7 +5,9 @@ settings, 15,000 draws), from the loaded run (figure inputs included: the data's
 posterior residuals):
 
 - ``default``: :func:`bouncebayes.report.make_figures` as a run calls it: PNG only, panels
-  placed from their texts before drawing (no layout engine), one rendering pass per file;
+  placed from their texts before drawing (no layout engine), one rendering pass per file,
+  the figures rendered by forked processes beside this one (one per core, up to four);
+- ``serial``: the same, rendered in this process only (``workers=1``);
 - ``png_svg``: the same with ``formats=("png", "svg")``;
 - ``constrained``: PNG only, laid out by matplotlib's constrained layout engine instead;
 - ``baseline``: the same figure functions with the settings the report used before: PNG and
@@ -13,7 +15,8 @@ posterior residuals):
   computations, e.g. the KDEs, are today's: the earlier code was slower still).
 
 Each mode runs ``--repeats`` times and the fastest wall-clock and CPU times count (the machine is
-shared: the minimum is the least disturbed). Per figure, the fastest drawing (building the
+shared: the minimum is the least disturbed); CPU time is this process's and its children's
+(``os.times``), and the 1-minute load average is recorded. Per figure, the fastest drawing (building the
 figure) and saving (layout, rendering, encoding) of the ``default`` mode are reported too.
 
 ``python benchmarks/figures.py [--quick] [--run DIR]``; ``--run`` reuses an existing run folder
@@ -52,10 +55,16 @@ def demo_run(out: Path) -> Path:
     return out
 
 
+def _cpu() -> float:
+    """CPU seconds of this process and of its finished children."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
 def timed(fn) -> tuple[float, float]:
-    wall, cpu = time.perf_counter(), time.process_time()
+    wall, cpu = time.perf_counter(), _cpu()
     fn()
-    return time.perf_counter() - wall, time.process_time() - cpu
+    return time.perf_counter() - wall, _cpu() - cpu
 
 
 def baseline(result, prop, folder, truth) -> None:
@@ -117,6 +126,7 @@ def main() -> None:
     out = Path(tempfile.mkdtemp(prefix="figures-out-"))
     modes = {
         "default": lambda: make_figures(result, prop, out, truth),
+        "serial": lambda: make_figures(result, prop, out, truth, workers=1),
         "png_svg": lambda: make_figures(result, prop, out, truth, formats=("png", "svg")),
         "constrained": lambda: constrained(result, prop, out, truth),
         "baseline": lambda: baseline(result, prop, folder, truth),
@@ -136,6 +146,8 @@ def main() -> None:
         **{f"{k}_wall_s": round(v[0], 3) for k, v in best.items()},
         **{f"{k}_cpu_s": round(v[1], 3) for k, v in best.items()},
         "speedup_wall": round(best["baseline"][0] / best["default"][0], 2),
+        "speedup_parallel_wall": round(best["serial"][0] / best["default"][0], 2),
+        "load_average_1min": round(os.getloadavg()[0], 2),
         "speedup_cpu": round(best["baseline"][1] / best["default"][1], 2),
         "speedup_png_svg_wall": round(best["baseline"][0] / best["png_svg"][0], 2),
         "per_figure": per_figure(result, prop, folder, truth, repeats),

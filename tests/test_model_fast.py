@@ -130,3 +130,20 @@ def test_table_reproduces_tight_ode_solutions_of_the_scaled_problem():
 def test_method_is_validated():
     with pytest.raises(ValueError, match=r"`method` must be one of 'auto', 'ode'; got 'fast'"):
         bb.simulate(mu=0.1, eta=1.0, speed=3.0, angle=60.0, method="fast")
+
+
+def test_tables_are_cached_on_disk_unchanged(tmp_path, monkeypatch):
+    """A table is built once and kept on disk: the cached one is the built one, bit for bit
+    (expected: the fresh build); an unreadable cache file is rebuilt, not trusted."""
+    path = tmp_path / "table.npz"
+    monkeypatch.setattr(_fast, "_cache_path", lambda law: path)
+    build = _fast.normal_table.__wrapped__  # without the per-process cache
+    built = build("hunt-crossley")
+    assert path.is_file()
+    cached = build("hunt-crossley")
+    np.testing.assert_array_equal(cached.coef, built.coef)
+    np.testing.assert_array_equal(cached.compression, built.compression)
+    path.write_bytes(b"not a table")
+    rebuilt = build("hunt-crossley")
+    np.testing.assert_array_equal(rebuilt.coef, built.coef)
+    assert np.load(path)["coef"].shape == built.coef.shape  # the bad file was replaced

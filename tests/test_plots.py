@@ -1,6 +1,7 @@
 """Figures: no import-time matplotlib, robust axis limits, the shared density of the measured
 rebounds, binned KDEs, residuals, and labels/legends on every figure of a run."""
 
+import os
 import subprocess
 import sys
 from dataclasses import replace
@@ -290,3 +291,24 @@ def test_figures_of_a_posterior_whose_bounces_all_fail(run):
     res = plots.Residuals(nan, nan, result.trials.labels, result.trials.incidence_speed,
                           result.trials.incidence_angle)
     _check_layout(plots.plot_residuals(res), "NaN residuals")
+
+
+def test_figure_workers_come_from_the_environment_or_the_cores(monkeypatch):
+    """BOUNCEBAYES_FIGURE_WORKERS sets how many processes render figures (checked: a positive
+    integer); without it, one per idle core (cores + 1 - load average), up to four."""
+    from bouncebayes.plots._figure import _default_workers
+
+    monkeypatch.setenv("BOUNCEBAYES_FIGURE_WORKERS", "3")
+    assert _default_workers() == 3
+    monkeypatch.setenv("BOUNCEBAYES_FIGURE_WORKERS", "0")
+    with pytest.raises(ValueError, match=r"BOUNCEBAYES_FIGURE_WORKERS must be a positive "
+                                         r"integer \(processes rendering figures\); got '0'"):
+        _default_workers()
+    monkeypatch.delenv("BOUNCEBAYES_FIGURE_WORKERS")
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2, 3, 4, 5}, raising=False)
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.1, 1.0, 1.0))
+    assert _default_workers() == 4  # six idle cores, capped
+    monkeypatch.setattr(os, "getloadavg", lambda: (4.2, 1.0, 1.0))
+    assert _default_workers() == 3  # 6 + 1 - 4.2 = 2.8 idle
+    monkeypatch.setattr(os, "getloadavg", lambda: (9.0, 1.0, 1.0))
+    assert _default_workers() == 1

@@ -49,6 +49,29 @@ def test_figures_in_svg_on_request(small_run, tmp_path):
     assert len(list((tmp_path / "figures").glob("*.png"))) == len(FIGURES)
 
 
+def test_figures_rendered_in_parallel_are_the_same_files(small_run, tmp_path):
+    """Rendering in forked processes (the default on Linux with several cores) writes the same
+    PNG bytes as rendering in this process (the expected files: workers=1)."""
+    from bouncebayes.propagation import load_propagation
+    from bouncebayes.report import load_result, load_truth, make_figures
+
+    result, prop = load_result(small_run.folder), load_propagation(small_run.folder)
+    shutil.copy(small_run.folder / "derived.json", tmp_path)
+    pngs, children = {}, {}
+    for workers in (1, 3):
+        out = tmp_path / f"w{workers}"
+        shutil.copytree(tmp_path, out, ignore=shutil.ignore_patterns("w*"))
+        before = os.times()
+        written = make_figures(result, prop, out, load_truth(small_run.folder),
+                               workers=workers)
+        after = os.times()
+        children[workers] = after.children_user - before.children_user
+        pngs[workers] = {key: png.read_bytes() for key, png in written}
+    assert list(pngs[3]) == list(FIGURES)
+    assert pngs[1] == pngs[3]
+    assert children[1] == 0 and children[3] > 0  # the forked copies did render
+
+
 def test_figure_formats():
     from bouncebayes.report import figure_formats
 

@@ -309,29 +309,31 @@ def _residual_figure(result: InferenceResult):
 
 def make_figures(result: InferenceResult, prop, folder: str | Path,
                  truth: dict | None = None, *,
-                 formats=DEFAULT_FORMATS, progress: bool = False) -> list[tuple[str, Path]]:
+                 formats=DEFAULT_FORMATS, progress: bool = False,
+                 workers: int | None = None) -> list[tuple[str, Path]]:
     """Draw every figure under ``folder/figures`` as PNG and the other ``formats`` asked for
     (``"svg"``, ``"pdf"``); returns (key, PNG path) in report order. Files of a figure in
     formats not asked for this time are removed, so that none is left from an earlier run.
-    ``progress``: a progress bar over the figures."""
+    ``progress``: a progress bar over the figures. ``workers``: processes that render the
+    figures (:func:`bouncebayes.plots.save_figures`; default: one per core, up to four)."""
     from tqdm.auto import tqdm
 
-    from .plots import FIGURE_FORMATS, save_figure
+    from .plots import FIGURE_FORMATS, save_figures
 
     fmts = figure_formats(formats)
     out = Path(folder) / "figures"
-    written = []
+    written, files = [], []
     makers = figure_makers(result, prop, folder, truth)
     for key, draw in tqdm(makers.items(), total=len(makers), desc="figures",
                           disable=not progress, leave=False, unit="figure"):
         fig = draw()
         if fig is None:
             continue
-        for fmt in fmts:
-            save_figure(fig, out / f"{key}.{fmt}")
+        files.append((fig, [out / f"{key}.{fmt}" for fmt in fmts]))
         for stale in (out / f"{key}{s}" for s in FIGURE_FORMATS if s[1:] not in fmts):
             stale.unlink(missing_ok=True)
         written.append((key, out / f"{key}.png"))
+    save_figures(files, workers)
     return written
 
 

@@ -10,10 +10,10 @@ has only two numbers: the damping number (``zeta = eta delta* / (m V)`` for Kelv
 ``chi = eta V`` for Hunt–Crossley) and the gravity number ``gamma = g cos(beta) delta* / V^2``.
 Its outcomes (restitution, contact time, peak force, overlaps, the impulse up to the force peak)
 are tabulated once per law by 2-D Chebyshev interpolation of tight ODE solutions (built in
-a fraction of a second at first use, cached per process). The rebound then follows in closed
-form from the normal impulse ``P`` (docs/model.md): a ball that slides throughout loses
-``mu P / m`` of tangential velocity; one whose slip reaches zero leaves rolling with
-``U' = U - kappa/(1+kappa) s0``.
+about half a CPU-second at first use, then kept on disk beside numba's cached kernels). The
+rebound then follows in closed form from the normal impulse ``P`` (docs/model.md): a ball
+that slides throughout loses ``mu P / m`` of tangential velocity; one whose slip reaches zero
+leaves rolling with ``U' = U - kappa/(1+kappa) s0``.
 
 Why a hand-written table: no library tabulates a parametrised ODE outcome with the variable
 change this one needs. The damping number enters through ``zeta^(1/3)`` for Kelvin–Voigt (the
@@ -34,10 +34,13 @@ element is handed to the ODE solver (a ``fallback`` reason per element).
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -83,7 +86,8 @@ LAW_POWER = {"kelvin-voigt": 3.0, "hunt-crossley": 1.0, "linear-dashpot": 1.0,
 # Fallback reasons (per element), 0 = closed form applied.
 FB_NONE, FB_DOMAIN, FB_SLOPE, FB_ODE = 0, 1, 2, 3
 SERIAL_MAX = 4096  # batches up to this size run on one thread (no parallel start-up cost)
-CHUNK = 256  # elements per parallel task: work arrays are allocated once per chunk
+CHUNK = 256  # elements per parallel task of the sampler kernels
+TASK = 16 * 256  # elements per parallel task of full results: sixteen blocks of bounce_range
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,10 +129,69 @@ def _cheb_nodes(n: int) -> np.ndarray:
 
 @lru_cache(maxsize=None)
 def normal_table(law: str) -> NormalTable:
-    """Build (once per process) the table of a normal law from tight ODE solutions."""
+    """The table of a normal law (once per process): from the disk cache, else built from
+    tight ODE solutions (half a CPU-second) and cached on disk."""
     damping_max, gamma_max = DOMAIN[law]
     power = LAW_POWER[law]
     x_max = damping_max ** (1.0 / power)
+    cached = _load_cached(law)
+    if cached is not None:
+        return NormalTable(law, cached[0], cached[1], x_max, gamma_max, power)
+    table = _build_table(law, x_max, gamma_max, power)
+    _store_cached(law, table.coef, table.compression)
+    return table
+
+
+# Where a built table is kept, beside numba's cached kernels; its name holds a hash of every
+# source file the table depends on (and NumPy's version), so that any change rebuilds it.
+_TABLE_SOURCES = ("_fast.py", "_kernel.py", "_ode.py", "_arrays.py", "_laws.py", "_config.py",
+                  "_domain.py", "_closed_form.py")
+
+
+def _cache_path(law: str) -> Path:
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256(np.__version__.encode())
+    for name in _TABLE_SOURCES:
+        digest.update((here / name).read_bytes())
+    return here / "__pycache__" / f"table-{law}-{digest.hexdigest()[:16]}.npz"
+
+
+def _load_cached(law: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(main, compression) coefficients of the cached table, or None (none, or unreadable)."""
+    try:
+        with np.load(_cache_path(law)) as f:
+            coef, compression = f["coef"], f["compression"]
+    except (OSError, KeyError, ValueError):
+        return None
+    pieces = (COMPRESSION_PIECES, 2 * COMPRESSION_NODES[2]) + COMPRESSION_NODES[:2]
+    if coef.shape != (N_TABLE,) + TABLE_NODES or compression.shape != pieces:
+        return None
+    return coef, compression
+
+
+def _store_cached(law: str, coef: np.ndarray, compression: np.ndarray) -> None:
+    """Keep a built table on disk (atomically; nothing when the folder is not writable), and
+    remove the tables of earlier sources."""
+    from .._io import write_with
+
+    try:
+        path = _cache_path(law)
+        path.parent.mkdir(exist_ok=True)
+        write_with(path, lambda tmp: _save_npz(tmp, coef, compression))
+        for old in path.parent.glob(f"table-{law}-*.npz"):
+            if old != path:
+                old.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+def _save_npz(path: Path, coef: np.ndarray, compression: np.ndarray) -> None:
+    with open(path, "wb") as fh:
+        np.savez(fh, coef=coef, compression=compression)
+
+
+def _build_table(law: str, x_max: float, gamma_max: float, power: float) -> NormalTable:
+    """The table of a normal law from tight ODE solutions."""
     nx, ng = TABLE_NODES
     cx, cg = _cheb_nodes(nx), _cheb_nodes(ng)
     x, g = np.meshgrid(0.5 * x_max * (1 + cx), 0.5 * gamma_max * (1 + cg), indexing="ij")
@@ -322,48 +385,6 @@ def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
     return True, u0 - kappa / (1.0 + kappa) * s0, w0 - s0 / ((1.0 + kappa) * r), 0.0, False
 
 
-@njit(cache=True)
-def _force_at_impulse(comp, x, gamma, x_max, gamma_max, target, t_peak, work, tx, ab):
-    """Normal force (scaled) when the impulse reaches ``target`` during compression.
-
-    The compression table gives the impulse Pi and the force Phi as Chebyshev series in
-    sigma = sqrt(t / t_peak); Pi(sigma) = target is solved by Newton's method with
-    dPi/dsigma = Phi * 2 sigma t_peak (dPi/dt = Phi). Pi is increasing and convex in sigma, and
-    sigma_0 = (target / Pi(1))^(1/5) lies at or beyond the root (Pi grows at most like
-    sigma^5, the undamped start), so the iterates descend onto it; a bracket catches any
-    step that would leave it.
-    """
-    n_pieces, ns2 = comp.shape[0], 2 * COMPRESSION_NODES[2]
-    nxc, ns = comp.shape[2] // ns2, COMPRESSION_NODES[2]
-    width = x_max / n_pieces
-    piece = min(int(x / width), n_pieces - 1)
-    gravity_rows(comp[piece], gamma, gamma_max, 0, comp.shape[2], work)
-    # the local variable of the piece mapped like the global one: x' in [0, x_max]
-    x_values(work, nxc, 0, ns2, 2.0 * (x - piece * width) * n_pieces / x_max - 1.0, tx, ab)
-    sigma = _first_guess(ab, ns, target, t_peak)
-    lo, hi = 0.0, 1.0
-    phi = 0.0
-    for _ in range(60):
-        pi, phi = _impulse_force(ab, ns, 2.0 * sigma - 1.0, tx)
-        f = pi - target
-        if f > 0.0:
-            hi = sigma
-        else:
-            lo = sigma
-        slope = phi * 2.0 * sigma * t_peak
-        step = f / slope if slope > 0.0 else math.inf
-        if abs(step) <= 3e-6:  # converged: quadratic, so the error after it is ~1e-11
-            sigma -= step
-            break
-        new = sigma - step
-        if not (lo <= new <= hi):  # a step out of the bracket: bisect instead
-            new = 0.5 * (lo + hi)
-        if hi - lo <= 1e-12:
-            break
-        sigma = new
-    return _impulse_force(ab, ns, 2.0 * sigma - 1.0, tx)[1]
-
-
 @njit(cache=True, inline="always")
 def _first_guess(ab, ns, target, t_peak):
     """Root of the two-term model Pi ~ alpha sigma^2 + beta sigma^5 of the compression: alpha
@@ -411,38 +432,39 @@ def _impulse_force(ab, ns, u, tx):
     return a0 + a1, b0 + b1
 
 
-@njit(cache=True)
-def _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows, tx, vals,
-                work, ab, out):
-    """Closed-form bounce of element ``i`` (gravity components gx, gy) with every output;
-    returns a fallback reason (> 0), 0 when it slides, -1 when it rolls."""
+@njit(cache=True, inline="always")
+def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, vals, out,
+                early, n_early):
+    """Closed-form bounce of element ``i`` (gravity components gx, gy) with every output but
+    the peak friction of a ball whose slip stops before the force peak: such an element is
+    appended to ``early`` (its index and what :func:`_early_friction` needs) and its peak
+    friction left for that pass. Returns (fallback reason (> 0), 0 when it slides, -1 when it
+    rolls; the new length of ``early``)."""
     r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
     mu, eta, k, gx, gy, u0, vn, w0 = element_with(values, ball, i, gx, gy)
     d_star, t_star, damping, x, gamma = normal_scales(m, k, eta, gy, vn, kv)
     if not (x <= x_max and gamma <= gamma_max):
-        return FB_DOMAIN
+        return FB_DOMAIN, n_early
     gravity_rows(main, gamma, gamma_max, 0, T_PPK * NX, rows)
     x_values(rows, NX, T_E, T_PPK, 2.0 * x / x_max - 1.0, tx, vals)
     tc = vals[T_TC] * t_star
     impulse = vn * (1.0 + vals[T_E] + gamma * vals[T_TC])  # P / m over the contact
     exact, u, w, phase, slides = tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse)
     if not exact:
-        return FB_SLOPE
+        return FB_SLOPE, n_early
     f_scale = m * vn * vn / d_star
     fn_peak = max(vals[T_FN], initial_force(kv, damping)) * f_scale
     ft_peak = mu * fn_peak
     if not slides:
         s0 = u0 + r * w0
-        slip_rate = mu * (1.0 + m * r * r / inertia)
         if s0 == 0.0:
             ft_peak = 0.0
-        else:
-            gravity_rows(main, gamma, gamma_max, T_PPK * NX, N_TABLE * NX, rows)
-            x_values(rows, NX, T_PPK, N_TABLE, 2.0 * x / x_max - 1.0, tx, vals)
-            if abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
-                phi = _force_at_impulse(comp, x, gamma, x_max, gamma_max,
-                                        abs(s0) / (slip_rate * vn), vals[T_TPK], work, tx, ab)
-                ft_peak = mu * max(phi, initial_force(kv, damping)) * f_scale
+        else:  # the slip stops: before the force peak? (decided in the second pass)
+            e = early[:, n_early]
+            e[E_INDEX], e[E_X], e[E_GAMMA], e[E_S0] = i, x, gamma, s0
+            e[E_MU], e[E_VN], e[E_TPK], e[E_DAMPING] = mu, vn, vals[T_TPK], damping
+            e[E_FSCALE] = f_scale
+            n_early += 1
     vn_out = vals[T_E] * vn
     out[O_SPEED, i], out[O_ANGLE, i] = speed_angle(u, vn_out)
     out[O_SPIN, i] = w
@@ -455,7 +477,106 @@ def _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows,
     out[O_DSEP, i] = vals[T_DSEP] * d_star
     out[O_TPK, i] = vals[T_TPK] * t_star
     out[O_STEPS, i] = 0.0
-    return FB_NONE if phase != 0.0 else -1  # -1: solved, rolling
+    return (FB_NONE if phase != 0.0 else -1), n_early  # -1: solved, rolling
+
+
+# What the second pass of :func:`bounce_range` needs of a ball whose slip stops.
+# (the last five: the state of its root search in :func:`_early_forces`)
+(E_INDEX, E_X, E_GAMMA, E_S0, E_MU, E_VN, E_TPK, E_DAMPING, E_FSCALE, E_TARGET, E_SIGMA, E_LO,
+ E_HI, E_ACTIVE) = range(14)
+N_EARLY = 14
+BLOCK = 256  # elements per pass pair of bounce_range: its scratch stays in the L1 cache
+
+
+@njit(cache=True, inline="always")
+def _early_friction(ball, main, comp, x_max, gamma_max, kv, early, n_early, sel, rows, tx,
+                    vals, work, ab, out):
+    """Peak friction of the balls whose slip stops (``early`` of :func:`_bounce_one`): where
+    it stops before the force peak, mu times the normal force when the impulse reaches the
+    slip's need (:func:`_early_forces`, piece by piece of the compression table); after the
+    peak, mu times the peak normal force (already written)."""
+    r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
+    slip_rate_per_mu = 1.0 + m * r * r / inertia
+    n_pieces = comp.shape[0]
+    width = x_max / n_pieces
+    for piece in range(n_pieces):
+        n_sel = 0
+        for j in range(n_early):
+            e = early[:, j]
+            x = e[E_X]
+            if min(int(x / width), n_pieces - 1) != piece:
+                continue
+            s0, mu, vn = e[E_S0], e[E_MU], e[E_VN]
+            slip_rate = mu * slip_rate_per_mu
+            gravity_rows(main, e[E_GAMMA], gamma_max, T_PPK * NX, N_TABLE * NX, rows)
+            x_values(rows, NX, T_PPK, N_TABLE, 2.0 * x / x_max - 1.0, tx, vals)
+            if abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
+                e[E_TARGET] = abs(s0) / (slip_rate * vn)
+                sel[n_sel] = j
+                n_sel += 1
+        _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab)
+        for k in range(n_sel):
+            e = early[:, sel[k]]
+            out[O_FT, int(e[E_INDEX])] = (e[E_MU] * max(e[E_SIGMA], initial_force(
+                kv, e[E_DAMPING])) * e[E_FSCALE])
+
+
+@njit(cache=True, inline="always")
+def _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
+    """Normal force (scaled) when the impulse reaches ``E_TARGET`` during compression, for the
+    elements ``sel[:n_sel]`` of ``early`` (all in the compression table's ``piece``), into
+    their ``E_SIGMA`` row.
+
+    The compression table gives the impulse Pi and the force Phi as Chebyshev series in
+    sigma = sqrt(t / t_peak); Pi(sigma) = target is solved by Newton's method with
+    dPi/dsigma = Phi * 2 sigma t_peak (dPi/dt = Phi). Pi is increasing and convex in sigma, and
+    sigma_0 = (target / Pi(1))^(1/5) lies at or beyond the root (Pi grows at most like
+    sigma^5, the undamped start), so the iterates descend onto it; a bracket catches any
+    step that would leave it. The searches advance side by side (one Newton step of each
+    element per round): one search is a long chain of dependent operations, and the processor
+    overlaps the chains of different elements. ``ab``: (BLOCK, 2 n_sigma) scratch."""
+    n_pieces, ns2 = comp.shape[0], 2 * COMPRESSION_NODES[2]
+    nxc, ns = comp.shape[2] // ns2, COMPRESSION_NODES[2]
+    width = x_max / n_pieces
+    for k in range(n_sel):
+        e = early[:, sel[k]]
+        gravity_rows(comp[piece], e[E_GAMMA], gamma_max, 0, comp.shape[2], work)
+        x_values(work, nxc, 0, ns2, 2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0,
+                 tx, ab[k])
+        e[E_SIGMA] = _first_guess(ab[k], ns, e[E_TARGET], e[E_TPK])
+        e[E_LO], e[E_HI], e[E_ACTIVE] = 0.0, 1.0, 1.0
+    for _ in range(60):
+        n_active = 0
+        for k in range(n_sel):
+            e = early[:, sel[k]]
+            if e[E_ACTIVE] == 0.0:
+                continue
+            n_active += 1
+            sigma = e[E_SIGMA]
+            pi, phi = _impulse_force(ab[k], ns, 2.0 * sigma - 1.0, tx)
+            f = pi - e[E_TARGET]
+            if f > 0.0:
+                e[E_HI] = sigma
+            else:
+                e[E_LO] = sigma
+            slope = phi * 2.0 * sigma * e[E_TPK]
+            step = f / slope if slope > 0.0 else math.inf
+            if abs(step) <= 3e-6:  # converged: quadratic, so the error after it is ~1e-11
+                e[E_SIGMA] = sigma - step
+                e[E_ACTIVE] = 0.0
+                continue
+            new = sigma - step
+            if not (e[E_LO] <= new <= e[E_HI]):  # a step out of the bracket: bisect instead
+                new = 0.5 * (e[E_LO] + e[E_HI])
+            if e[E_HI] - e[E_LO] <= 1e-12:
+                e[E_ACTIVE] = 0.0
+                continue
+            e[E_SIGMA] = new
+        if n_active == 0:
+            break
+    for k in range(n_sel):  # the force at the root (E_SIGMA now holds it)
+        e = early[:, sel[k]]
+        e[E_SIGMA] = _impulse_force(ab[k], ns, 2.0 * e[E_SIGMA] - 1.0, tx)[1]
 
 
 @njit(cache=True)
@@ -463,51 +584,63 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
                  kv, start, stop, out, status, rolling, flags, fallback):
     """Full closed-form bounces of elements [start, stop): outputs, status, flags (Hertz
     validity, closed form) and fallback reasons; returns (invalid, fallback) counts.
-    ``check_each``: whether elements may lie outside their bounds (see ``all_valid``)."""
+    ``check_each``: whether elements may lie outside their bounds (see ``all_valid``).
+
+    In blocks of ``BLOCK`` elements, two passes: every output of every element (one straight
+    loop body), then the peak friction of the balls whose slip stops (a third of the prior box,
+    each a root search in the compression table), so that the rare long branch does not sit
+    in the loop that every element runs through."""
     rows = np.empty(N_TABLE * NX)
     tx = np.empty(NX)
     vals = np.empty(N_TABLE)
     work = np.empty(comp.shape[2])
-    ab = np.empty(2 * COMPRESSION_NODES[2])
+    ab = np.empty((BLOCK, 2 * COMPRESSION_NODES[2]))
+    early = np.empty((N_EARLY, BLOCK))
+    sel = np.empty(BLOCK, dtype=np.int64)
     limit = HERTZ_OVERLAP_LIMIT * ball[B_R]
     shared_gravity = values[I_INCL].shape[0] == 1 and values[I_G].shape[0] == 1
     gx, gy = gravity_parts(values, 0)
     n_invalid = n_fallback = 0
-    for i in range(start, stop):
-        reason = FB_ODE
-        if check_each and not valid(values, bounds, i):
-            fill_failed(out, i, status, K.ST_INVALID, rolling, flags)
+    for block in range(start, stop, BLOCK):
+        n_early = 0
+        for i in range(block, min(block + BLOCK, stop)):
+            reason = FB_ODE
+            if check_each and not valid(values, bounds, i):
+                fill_failed(out, i, status, K.ST_INVALID, rolling, flags)
+                fallback[i] = FB_NONE
+                n_invalid += 1
+                continue
+            if closed_form:
+                if not shared_gravity:
+                    gx, gy = gravity_parts(values, i)
+                reason, n_early = _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max,
+                                              kv, rows, tx, vals, out, early, n_early)
+            if reason > 0:
+                fill_failed(out, i, status, K.ST_OK, rolling, flags)
+                n_fallback += 1
+                fallback[i] = reason
+                continue
             fallback[i] = FB_NONE
-            n_invalid += 1
-            continue
-        if closed_form:
-            if not shared_gravity:
-                gx, gy = gravity_parts(values, i)
-            reason = _bounce_one(values, ball, i, gx, gy, main, comp, x_max, gamma_max, kv, rows,
-                                 tx, vals, work, ab, out)
-        if reason > 0:
-            fill_failed(out, i, status, K.ST_OK, rolling, flags)
-            n_fallback += 1
-            fallback[i] = reason
-            continue
-        fallback[i] = FB_NONE
-        status[i] = K.ST_OK
-        rolling[i] = reason < 0
-        flags[0, i] = out[O_DMAX, i] <= limit
-        flags[1, i] = True
+            status[i] = K.ST_OK
+            rolling[i] = reason < 0
+            flags[0, i] = out[O_DMAX, i] <= limit
+            flags[1, i] = True
+        _early_friction(ball, main, comp, x_max, gamma_max, kv, early, n_early, sel, rows, tx,
+                        vals, work, ab, out)
     return n_invalid, n_fallback
 
 
 @njit(cache=True, parallel=True)
 def bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max, gamma_max,
                     kv, out, status, rolling, flags, fallback):
-    """:func:`bounce_range` over all elements, in parallel chunks; returns the counts."""
+    """:func:`bounce_range` over all elements, in parallel tasks of ``TASK`` elements handed
+    out one at a time (:func:`bounces`); returns the counts."""
     n = status.shape[0]
-    n_chunks = (n + CHUNK - 1) // CHUNK
+    n_chunks = (n + TASK - 1) // TASK
     counts = np.zeros((n_chunks, 2), dtype=np.int64)
     for c in prange(n_chunks):
         a, b = bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
-                            gamma_max, kv, c * CHUNK, min(n, (c + 1) * CHUNK), out, status,
+                            gamma_max, kv, c * TASK, min(n, (c + 1) * TASK), out, status,
                             rolling, flags, fallback)
         counts[c, 0] = a
         counts[c, 1] = b
@@ -524,8 +657,14 @@ def bounces(values, ball, bounds, closed_form: bool, tables, out, status, rollin
     if status.size <= SERIAL_MAX:
         return bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max,
                             gamma_max, kv, 0, status.size, out, status, rolling, flags, fallback)
-    return bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max,
-                           gamma_max, kv, out, status, rolling, flags, fallback)
+    # tasks handed out one at a time, not split evenly in advance: on a shared machine a
+    # thread that is held up no longer keeps the others waiting (and spinning) at the end
+    previous = numba.set_parallel_chunksize(1)
+    try:
+        return bounce_parallel(values, ball, bounds, check_each, closed_form, main, comp, x_max,
+                               gamma_max, kv, out, status, rolling, flags, fallback)
+    finally:
+        numba.set_parallel_chunksize(previous)
 
 
 # --- conditions fixed, parameters varying (samplers) -------------------------------------------

@@ -15,6 +15,7 @@ from ._derived import plot_derived as plot_derived
 from ._figure import FIGURE_FORMATS as FIGURE_FORMATS
 from ._figure import STYLE as STYLE
 from ._figure import save_figure as save_figure
+from ._figure import save_figures as save_figures
 from ._limits import robust_limits as robust_limits
 from ._posterior import plot_diagnostics as plot_diagnostics
 from ._posterior import plot_joint_posterior as plot_joint_posterior
@@ -29,4 +30,4 @@ from ._residuals import posterior_residuals as posterior_residuals
 __all__ = ["FIGURE_FORMATS", "STYLE", "Residuals", "measured_density", "plot_bounce", "plot_comparison", "plot_contact_time",
            "plot_data", "plot_derived", "plot_diagnostics", "plot_forces", "plot_joint_posterior",
            "plot_marginals", "plot_predictive", "plot_residuals", "plot_trajectories",
-           "posterior_residuals", "robust_limits", "save_figure"]
+           "posterior_residuals", "robust_limits", "save_figure", "save_figures"]
