@@ -311,7 +311,19 @@ def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
     arrays = read_posterior(posterior, names)
     discrepancy = summary.get("discrepancy", "none")
     extra: dict[str, Any] = {}
-    if set(names) - set(experiment.priors):
+    population = None
+    if summary["likelihood"] == "population":
+        from ._population import hyper_priors
+        from ._population_run import Population
+
+        record = summary["population"]
+        model = tuple(record["parameters"])
+        extra = hyper_priors(experiment, model)
+        pred = arrays.get("population_predictive") or {}
+        population = Population(model, tuple(experiment.unit(n) for n in model),
+                                np.stack([pred[n] for n in model], axis=-1),
+                                arrays.get("bounces") or {}, record)
+    elif set(names) - set(experiment.priors):
         extra = discrepancy_priors(trials) if discrepancy != "none" else noise_priors(trials)
     priors = tuple(experiment.priors[n] if n in experiment.priors else extra[n] for n in names)
     units = tuple(p["unit"] for p in summary["parameters"].values())
@@ -331,7 +343,7 @@ def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
                            arrays["log_likelihood"], None if rep is None else Replicates(*rep),
                            int(summary.get("memory_budget_bytes", DEFAULT_MEMORY_BUDGET)),
                            _saved_adequacy(summary, trials, arrays), discrepancy,
-                           summary.get("fit_without_discrepancy"))
+                           summary.get("fit_without_discrepancy"), population)
 
 
 def _saved_adequacy(summary: dict, trials: Trials, arrays: dict) -> Adequacy | None:

@@ -312,7 +312,7 @@ def infer_population(experiment, trials, sampler: str, seed: int, config, noise:
 
     names = experiment.parameter_names
     hyper = hyper_names(names)
-    if isinstance(config, MHConfig) and config == MHConfig():
+    if isinstance(config, MHConfig) and config.burn_in < BURN_IN:
         # the paper's 100 burn-in iterations tune the proposal of a posterior with its mode
         # inside the box; a spread's posterior piled at zero needs longer to tune
         config = dataclasses.replace(config, burn_in=BURN_IN)
