@@ -16,10 +16,10 @@ per-bounce parameters are integrated out exactly on a grid (``docs/likelihoods.m
    ``w_k[j] = int hat_j(x) p_k(x) dx`` in closed form (normal and lognormal partial moments).
    These weights are exact for any spread, zero included (where they become the linear
    interpolation weights at the mean), so the quadrature error is that of interpolating
-   ``L_i`` alone: the grid is refined until the interpolant from every other node misses the
-   nodes between little enough that the log-likelihood changes by less than
-   ``QUADRATURE_TOL`` at pilot rows (Richardson), and the error is measured again at the
-   posterior draws after sampling;
+   ``L_i`` alone. It is measured at the posterior draws after sampling (Richardson: the grid
+   of every other node has 4 times the error, the error falling like h^2), and where its
+   variation over the draws (what moves the posterior) exceeds ``QUADRATURE_LIMIT`` nats the
+   grid's spacing is halved and the hyper-parameters sampled again;
 3. each ``L_i`` is held as its singular value decomposition truncated at ``SVD_TOL`` of its
    largest singular value, so that a row costs two small matrix products instead of a sum
    over every node: this is what makes sampling the hyper-parameters fast.
@@ -45,11 +45,11 @@ from ..data import Experiment, Prior, Trials, Uniform
 from ._memory import DEFAULT_MEMORY_BUDGET, batch_rows
 
 FAMILIES = ("normal", "lognormal")
-POINTS = {1: 1025, 2: 129}  #: first grid nodes per parameter (refined by halving the spacing)
-MAX_POINTS = {1: 16385, 2: 513}  #: finest grid tried
+POINTS = {1: 1025, 2: 257}  #: first grid nodes per parameter (refined by halving the spacing)
+MAX_POINTS = {1: 8193, 2: 513}  #: finest grid tried
 COARSE_POINTS = {1: 257, 2: 41}  #: the coarse grid that finds where the likelihoods live
-QUADRATURE_TOL = 0.05  #: error of the log-likelihood (nats) the grid is refined to
-SVD_TOL = 1e-7  #: singular values kept, relative to each trial's largest
+SVD_TOL = 1e-6  #: singular values kept, relative to each trial's largest
+WEIGHT_CUT = 1e-18  #: population weights below this share of the largest are left out
 CUT = 1e-12  #: relative likelihood below which a node is outside a trial's support
 SD_RANGE = 0.5  #: the spread's hyper-prior reaches this share of the prior box's width
 TINY = 1e-300
@@ -198,16 +198,13 @@ class MeasurementGrid:
     """Each trial's measurement likelihood on the grid: ``nodes`` per parameter, ``relative``
     (trials, n_1[, n_2]) likelihood over its maximum ``log_max`` (trials,), ``rolling`` the
     same shape (bool: the bounce leaves rolling), ``interpolation_error`` (the worst miss of the
-    interpolant from every other node, relative to each trial's peak), ``pilot_error`` (the
-    Richardson estimate of the log-likelihood's error at the pilot rows, nats)."""
+    interpolant from every other node, relative to each trial's peak)."""
 
     nodes: tuple[np.ndarray, ...]
     relative: np.ndarray
     log_max: np.ndarray
     rolling: np.ndarray
     interpolation_error: float
-    refinements: int
-    pilot_error: float = float("nan")
 
 
 def _loglik_nodes(forward, cov: np.ndarray, y: np.ndarray, nodes, budget: float,
@@ -258,33 +255,11 @@ def grid_log_likelihood(nodes, rel: np.ndarray, log_max: np.ndarray, domains, fa
     return (log_max + np.log(np.maximum(m, TINY))).sum(axis=1)
 
 
-def _pilot(nodes, rel: np.ndarray) -> np.ndarray:
-    """Hyper-parameter rows where the quadrature is judged before sampling: the pooled mode of
-    the trials' likelihoods (moved off the nodes by a fraction of a cell), with no spread, and
-    with the spread of the trials' own modes."""
-    with np.errstate(divide="ignore"):
-        pooled = np.log(rel).sum(axis=0)
-    best = np.unravel_index(int(np.argmax(pooled)), pooled.shape)
-    modes = np.array([np.unravel_index(int(np.argmax(r)), r.shape) for r in rel])
-    rows = []
-    for spread in (False, True):
-        row = []
-        for k, c in enumerate(nodes):
-            h = c[1] - c[0]
-            mean = min(c[best[k]] + 0.37 * h, c[-1])
-            row += [mean, float(np.std(c[modes[:, k]])) if spread else 0.0]
-        rows.append(row)
-    return np.array(rows)
-
-
-def measurement_grid(gauss, box: np.ndarray, domains, family: str,
-                     budget: float = DEFAULT_MEMORY_BUDGET,
+def measurement_grid(gauss, box: np.ndarray, budget: float = DEFAULT_MEMORY_BUDGET,
                      points: int | None = None) -> MeasurementGrid:
-    """Each trial's likelihood on a grid over the part of ``box`` (d, 2) where some trial's is
-    above ``CUT`` of its peak on a coarse grid (padded by a coarse cell), refined by halving
-    the spacing until the log-likelihood's error at the pilot rows (Richardson: a third of the
-    change from the grid of every other node, the error falling like h^2) is below
-    ``QUADRATURE_TOL`` (or with ``points`` nodes, if given)."""
+    """Each trial's likelihood on a grid of ``points`` nodes per parameter (default
+    ``POINTS``) over the part of ``box`` (d, 2) where some trial's is above ``CUT`` of its peak
+    on a coarse grid (padded by a coarse cell)."""
     d = box.shape[0]
     cov = gauss.covariances(np.mean(box, axis=1)[None, :])[0]
     y = np.column_stack([gauss.speed, gauss.angle]).astype(float)
@@ -298,21 +273,16 @@ def measurement_grid(gauss, box: np.ndarray, domains, family: str,
     for k, c in enumerate(coarse):
         idx = np.flatnonzero(np.any(alive, axis=tuple(j for j in range(d) if j != k)))
         zoom.append((c[max(idx.min() - 1, 0)], c[min(idx.max() + 1, c.size - 1)]))
-    n = points or POINTS[d]
-    refinements = 0
-    while True:
-        nodes = tuple(np.linspace(lo, hi, n) for lo, hi in zoom)
-        ll, rolling = _loglik_nodes(gauss.forward, cov, y, nodes, 0.25 * budget, per_row)
-        peak = ll.reshape(ll.shape[0], -1).max(axis=1)
-        rel = np.exp(ll - peak.reshape((-1,) + (1,) * d))
-        pilot = _pilot(nodes, rel)
-        quad = float(np.max(np.abs(
-            grid_log_likelihood(nodes, rel, peak, domains, family, pilot)
-            - grid_log_likelihood(nodes, rel, peak, domains, family, pilot, 2)))) / 3.0
-        if points is not None or quad <= QUADRATURE_TOL or 2 * n - 1 > MAX_POINTS[d]:
-            return MeasurementGrid(nodes, rel, peak, rolling, _interpolation_error(rel),
-                                   refinements, quad)
-        n, refinements = 2 * n - 1, refinements + 1
+    nodes = tuple(np.linspace(lo, hi, points or POINTS[d]) for lo, hi in zoom)
+    ll, rolling = _loglik_nodes(gauss.forward, cov, y, nodes, 0.25 * budget, per_row)
+    peak = ll.reshape(ll.shape[0], -1).max(axis=1)
+    rel = np.exp(ll - peak.reshape((-1,) + (1,) * d))
+    return MeasurementGrid(nodes, rel, peak, rolling, _interpolation_error(rel))
+
+
+def refined(n: int, d: int) -> int | None:
+    """Nodes per parameter of the grid of half the spacing (``None``: beyond MAX_POINTS)."""
+    return 2 * n - 1 if 2 * n - 1 <= MAX_POINTS[d] else None
 
 
 def _no_support(ll: np.ndarray, gauss) -> None:
@@ -326,31 +296,89 @@ def _no_support(ll: np.ndarray, gauss) -> None:
                          f"the priors")
 
 
-def _factor(rel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Each trial's relative likelihood as a truncated SVD on its support: ``U`` (n_1, K)
-    scaled by the singular values, ``V`` (n_2, K), the trial of each column (K,), and the
-    largest rank kept."""
-    n_trials = rel.shape[0]
+@dataclass(frozen=True)
+class Factors:
+    """Each trial's relative likelihood as a truncated SVD on its support: column ``k`` of
+    trial ``owner[k]`` is ``ut[k]`` (scaled by its singular value) times ``vt[k]``, nonzero
+    only on nodes ``lo0[k]:hi0[k]`` and ``lo1[k]:hi1[k]``; ``start[i]:start[i + 1]`` are the
+    columns of trial ``i``."""
+
+    ut: np.ndarray  #: (K, n_1)
+    vt: np.ndarray  #: (K, n_2)
+    start: np.ndarray
+    lo0: np.ndarray
+    hi0: np.ndarray
+    lo1: np.ndarray
+    hi1: np.ndarray
+
+    @property
+    def rank(self) -> int:
+        return int(np.max(np.diff(self.start)))
+
+
+def factorise(rel: np.ndarray) -> Factors:
+    """The :class:`Factors` of the relative likelihoods (trials, n_1[, n_2])."""
     if rel.ndim == 2:  # one parameter: the likelihood itself
-        return (np.ascontiguousarray(rel.T), np.ones((1, n_trials)),
-                np.arange(n_trials), 1)
-    us, vs, owner, rank = [], [], [], 0
+        rel = rel[:, :, None]
+    n_trials, n0, n1 = rel.shape
+    us, vs, start, bounds = [], [], [0], []
     for i in range(n_trials):
         a = rel[i]
         rows = np.flatnonzero(a.max(axis=1) > CUT)
         cols = np.flatnonzero(a.max(axis=0) > CUT)
         r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
-        u, s, vt = np.linalg.svd(a[r0:r1, c0:c1], full_matrices=False)
-        k = int(np.count_nonzero(s > SVD_TOL * s[0]))
-        big_u = np.zeros((a.shape[0], k))
-        big_v = np.zeros((a.shape[1], k))
-        big_u[r0:r1] = u[:, :k] * s[:k]
-        big_v[c0:c1] = vt[:k].T
+        u, sv, vt = np.linalg.svd(a[r0:r1, c0:c1], full_matrices=False)
+        k = int(np.count_nonzero(sv > SVD_TOL * sv[0]))
+        big_u = np.zeros((k, n0))
+        big_v = np.zeros((k, n1))
+        big_u[:, r0:r1] = (u[:, :k] * sv[:k]).T
+        big_v[:, c0:c1] = vt[:k]
         us.append(big_u)
         vs.append(big_v)
-        owner.extend([i] * k)
-        rank = max(rank, k)
-    return np.hstack(us), np.hstack(vs), np.asarray(owner), rank
+        start.append(start[-1] + k)
+        bounds += [(r0, r1, c0, c1)] * k
+    b = np.asarray(bounds, dtype=np.int64)
+    return Factors(np.ascontiguousarray(np.vstack(us)), np.ascontiguousarray(np.vstack(vs)),
+                   np.asarray(start, dtype=np.int64), b[:, 0].copy(), b[:, 1].copy(),
+                   b[:, 2].copy(), b[:, 3].copy())
+
+
+@njit(cache=True, inline="always")
+def _support(w):
+    """First and one-past-last index of the weights above WEIGHT_CUT of the largest (the rest
+    changes the integral by less than WEIGHT_CUT times the number of nodes, relative)."""
+    top = 0.0
+    for j in range(w.size):
+        top = max(top, w[j])
+    cut = WEIGHT_CUT * top
+    lo, hi = 0, w.size
+    while lo < hi and w[lo] <= cut:
+        lo += 1
+    while hi > lo and w[hi - 1] <= cut:
+        hi -= 1
+    return lo, hi
+
+
+@njit(cache=True)
+def _marginals(w0, w1, ut, vt, start, lo0, hi0, lo1, hi1, out):
+    """out[r, i] = w0[r] . L_i . w1[r] from the factors, summing only where both the weights
+    and the trial's support are nonzero (a compiled loop: the samplers' inner step)."""
+    for r in range(w0.shape[0]):
+        a0, b0 = _support(w0[r])
+        a1, b1 = _support(w1[r])
+        for i in range(start.size - 1):
+            total = 0.0
+            for k in range(start[i], start[i + 1]):
+                x = 0.0
+                for j in range(max(lo0[k], a0), min(hi0[k], b0)):
+                    x += w0[r, j] * ut[k, j]
+                if x == 0.0:
+                    continue
+                y = 0.0
+                for j in range(max(lo1[k], a1), min(hi1[k], b1)):
+                    y += w1[r, j] * vt[k, j]
+                total += x * y
+            out[r, i] = total
 
 
 # ------------------------------------------------------------------ the likelihood
@@ -369,13 +397,10 @@ class PopulationLikelihood:
     name: str = "population"
     compares = "population"
     extra_parameters = ()
-    _factors: tuple[np.ndarray, ...] = field(init=False, repr=False, compare=False)
+    _factors: Factors = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        u, v, owner, rank = _factor(self.grid.relative)
-        assign = np.zeros((owner.size, self.grid.relative.shape[0]))
-        assign[np.arange(owner.size), owner] = 1.0
-        object.__setattr__(self, "_factors", (u, v, assign, np.array(rank)))
+        object.__setattr__(self, "_factors", factorise(self.grid.relative))
 
     @property
     def observations(self) -> tuple[str, ...]:
@@ -387,7 +412,7 @@ class PopulationLikelihood:
 
     @property
     def bytes_per_row(self) -> float:
-        return 8.0 * (sum(c.size for c in self.grid.nodes) + 3 * self._factors[0].shape[1])
+        return 8.0 * (sum(c.size for c in self.grid.nodes) + len(self.observations))
 
     def weights(self, theta: np.ndarray) -> list[np.ndarray]:
         """Hat weights (R, n_k) per parameter of the hyper-parameter rows."""
@@ -397,11 +422,13 @@ class PopulationLikelihood:
 
     def pointwise(self, theta: np.ndarray) -> np.ndarray:
         """(R, trials): each trial's log marginal likelihood."""
-        u, v, assign, _ = self._factors
+        theta = np.atleast_2d(theta)
         w = self.weights(theta)
-        a = w[0] @ u
-        b = w[1] @ v if len(w) > 1 else np.ones_like(a)
-        m = (a * b) @ assign
+        if len(w) == 1:
+            w.append(np.ones((theta.shape[0], 1)))
+        f = self._factors
+        m = np.empty((theta.shape[0], f.start.size - 1))
+        _marginals(w[0], w[1], f.ut, f.vt, f.start, f.lo0, f.hi0, f.lo1, f.hi1, m)
         with np.errstate(divide="ignore"):
             return self.grid.log_max + np.log(np.maximum(m, TINY))
 
@@ -435,10 +462,8 @@ class PopulationLikelihood:
                                "interpolant on the grid) against the population density",
             "grid_points": [int(c.size) for c in g.nodes],
             "grid_box": [[float(c[0]), float(c[-1])] for c in g.nodes],
-            "grid_refinements": g.refinements,
             "interpolation_error": g.interpolation_error,
-            "pilot_quadrature_error": g.pilot_error,
-            "svd_rank_max": int(self._factors[3]),
+            "svd_rank_max": self._factors.rank,
             "incidence_uncertainty": self.gauss.describe()["incidence_uncertainty"],
             "pointwise": "per trial: the log of each trial's likelihood integrated over its "
                          "own parameters against the population",
@@ -479,7 +504,8 @@ def make_population(experiment: Experiment, trials: Trials, names: tuple[str, ..
                     family: str = "normal", noise: str = "auto", discrepancy: str = "none",
                     memory_budget: float = DEFAULT_MEMORY_BUDGET,
                     points: int | None = None) -> PopulationLikelihood:
-    """The population likelihood of the trials for the model parameters ``names``."""
+    """The population likelihood of the trials for the model parameters ``names``
+    (``points``: grid nodes per parameter, default ``POINTS``)."""
     from ._likelihood import _gaussian
 
     check_population(names, noise, discrepancy, trials, family)
@@ -493,5 +519,5 @@ def make_population(experiment: Experiment, trials: Trials, names: tuple[str, ..
     box = np.array([experiment.priors[n].box(1e-6) for n in names], dtype=float)
     domains = tuple((float(a), float(b)) for a, b in
                     (experiment.priors[n].support for n in names))
-    grid = measurement_grid(gauss, box, domains, family, memory_budget, points)
+    grid = measurement_grid(gauss, box, memory_budget, points)
     return PopulationLikelihood(gauss, tuple(names), family, domains, grid)

@@ -17,7 +17,8 @@ from ._pass import Replicates
 from ._population import (BOUNCE_DRAWS, ERROR_DRAWS, PREDICTIVE_DRAWS, ROLLING_LIMIT,
                           PopulationLikelihood, sample_population)
 
-QUADRATURE_LIMIT = 0.1  #: error of the log-likelihood (nats) above which the grid is too coarse
+QUADRATURE_LIMIT = 0.1  #: variation of the log-likelihood's error (nats) over the draws above
+#: which the grid's spacing is halved and the hyper-parameters sampled again
 PREDICTIVE_QUANTILES = (0.05, 0.5, 0.95)
 BOUNCE_FIELDS = ("mean", "sd", "alone_mean", "alone_sd", "shrinkage")
 
@@ -180,15 +181,19 @@ def adequacy(replicates: Replicates, trials) -> Adequacy:
     return _with_verdict(out, failures(out))
 
 
-def quadrature_error(like: PopulationLikelihood, draws: Draws) -> float:
-    """The error of the log-likelihood at evenly spaced draws, by Richardson extrapolation: the
-    grid of every other node has about 4 times the full grid's error (h^2), so the full grid's
-    is about a third of their difference."""
+def quadrature_error(like: PopulationLikelihood, draws: Draws) -> tuple[float, float]:
+    """The error of the log-likelihood at evenly spaced draws, by Richardson extrapolation (the
+    grid of every other node has about 4 times the full grid's error, h^2, so the full grid's
+    is about a third of their difference): its variation over the draws (5 to 95 % range:
+    what moves the posterior; a constant offset does not) and its largest size."""
     flat = draws.samples.reshape(-1, draws.samples.shape[-1])
     rows = flat[_even(flat.shape[0], ERROR_DRAWS)]
-    fine, coarse = like(rows), like.on_coarser_grid(rows)
-    ok = np.isfinite(fine) & np.isfinite(coarse)
-    return float(np.max(np.abs(fine[ok] - coarse[ok])) / 3.0) if ok.any() else float("inf")
+    diff = (like(rows) - like.on_coarser_grid(rows)) / 3.0
+    diff = diff[np.isfinite(diff)]
+    if not diff.size:
+        return float("inf"), float("inf")
+    q = np.quantile(diff, [0.05, 0.95])
+    return float(q[1] - q[0]), float(np.max(np.abs(diff)))
 
 
 def log_likelihood(like: PopulationLikelihood, draws: Draws) -> np.ndarray:
@@ -204,13 +209,19 @@ def log_likelihood(like: PopulationLikelihood, draws: Draws) -> np.ndarray:
 def describe_population(like: PopulationLikelihood, units: tuple[str, ...],
                         predictive: np.ndarray, hyper: dict[str, np.ndarray],
                         bounces: dict[str, np.ndarray], share_rolling: float,
-                        quad_error: float) -> tuple[dict, list[str]]:
+                        quad_error: tuple[float, float]) -> tuple[dict, list[str]]:
     """The summary.json ``population`` object and the words of the result."""
     flat = predictive.reshape(-1, predictive.shape[-1])
     record: dict[str, Any] = {"family": like.family, "parameters": list(like.names),
                               "predictive": {}, "bounces": {},
                               "share_of_bounces_rolling": share_rolling,
-                              "quadrature_error_log_likelihood": quad_error}
+                              "quadrature_error_log_likelihood": {
+                                  "variation_over_draws": quad_error[0],
+                                  "largest": quad_error[1],
+                                  "meaning": "Richardson estimate (nats) of the grid's error of "
+                                             "the log-likelihood at posterior draws; its "
+                                             "variation moves the posterior, a constant offset "
+                                             "does not"}}
     words = []
     for k, (name, unit) in enumerate(zip(like.names, units, strict=True)):
         x = flat[:, k]
@@ -269,6 +280,7 @@ def run_population(like: PopulationLikelihood, draws: Draws, experiment, trials,
     hyper = {n: flat[:, i] for i, n in enumerate(_hyper(names))}
     quad = quadrature_error(like, draws)
     record, words = describe_population(like, units, predictive, hyper, bounces, share, quad)
+    record["grid_points"] = [int(c.size) for c in like.grid.nodes]
     pop = Population(names, units, predictive, bounces, record)
     return pop, reps, regimes(rolling, ok), adequacy(reps, trials), log_likelihood(like, draws)
 
@@ -283,7 +295,7 @@ def population_warnings(like: PopulationLikelihood, pop: Population) -> list[str
     """The grid's resolution, in words, where it limits the result."""
     out = []
     g = like.grid
-    quad = pop.record["quadrature_error_log_likelihood"]
+    quad = pop.record["quadrature_error_log_likelihood"]["variation_over_draws"]
     if not quad <= QUADRATURE_LIMIT:
         out.append(f"the integration grid ({' x '.join(str(c.size) for c in g.nodes)} nodes) "
                    f"resolves the trials' likelihoods only roughly: the log-likelihood may be "
@@ -306,7 +318,7 @@ def infer_population(experiment, trials, sampler: str, seed: int, config, noise:
     from ._infer import InferenceResult, plan_memory
     from ._config import MHConfig
     from ._mh import sample_mh
-    from ._population import hyper_names, hyper_priors, make_population
+    from ._population import hyper_names, hyper_priors, make_population, refined
     from ._posterior import LogPosterior
     from ._summary import diagnostics, summarize_parameter, warnings_for
 
@@ -320,13 +332,19 @@ def infer_population(experiment, trials, sampler: str, seed: int, config, noise:
     notes = data_warnings(experiment, trials)
     start = time.perf_counter()
     _, rng_sampler, rng_pass = np.random.default_rng(seed).spawn(3)
-    like = make_population(experiment, trials, names, family=family, noise=noise,
-                           discrepancy=discrepancy, memory_budget=0.5 * budget)
     priors = hyper_priors(experiment, names)
     units = tuple(experiment.unit(n) for n in names for _ in (0, 1))
-    post = LogPosterior(hyper, tuple(priors[h] for h in hyper), units, like)
     run = {"mh": sample_mh, "ensemble": sample_ensemble, "grid": sample_grid}[sampler]
-    draws = run(post, config, rng_sampler, progress)  # type: ignore[operator]
+    points = None
+    while True:  # the grid is judged again where the posterior lies, and refined if needed
+        like = make_population(experiment, trials, names, family=family, noise=noise,
+                               discrepancy=discrepancy, memory_budget=0.5 * budget,
+                               points=points)
+        post = LogPosterior(hyper, tuple(priors[h] for h in hyper), units, like)
+        points = refined(like.grid.nodes[0].size, len(names))
+        draws = run(post, config, rng_sampler.spawn(1)[0], progress)  # type: ignore[operator]
+        if quadrature_error(like, draws)[0] <= QUADRATURE_LIMIT or points is None:
+            break
     pop, reps, regime, check, loglik = run_population(like, draws, experiment, trials,
                                                       rng_pass)
     diag = diagnostics(draws.samples, hyper)
