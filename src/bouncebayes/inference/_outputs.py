@@ -151,8 +151,9 @@ def read_posterior(path: str | Path, names: tuple[str, ...]) -> dict[str, Any]:
                        if "adequacy" in tree else None)
     if "population_predictive" in tree:
         pp = tree["population_predictive"]
-        out["population_predictive"] = {k: pp[k].values for k in pp.data_vars}
-        out["bounces"] = {k: tree["bounces"][k].values for k in tree["bounces"].data_vars}
+        out["population_predictive"] = {str(k): pp[str(k)].values for k in pp.data_vars}
+        bounces = tree["bounces"]
+        out["bounces"] = {str(k): bounces[str(k)].values for k in bounces.data_vars}
     if "posterior_predictive" in tree:
         pp = tree["posterior_predictive"]
         out["replicates"] = (pp["draw"].values, pp["rebound_speed"].values,
