@@ -12,7 +12,7 @@ Where the expected values come from:
   spread's posterior must pile at zero and the mean agree with the gaussian likelihood's
   posterior within their sds), and a campaign with spread but no measurement noise (the
   population's spread must cover the sample sd of the true per-bounce parameters);
-- the rolling threshold of the rigid-body model (MODEL.md §3): at 30 deg incidence a bounce
+- the rolling threshold of the rigid-body limit (docs/model.md): at 30 deg incidence a bounce
   with mu above (2/7) tan(30 deg) / (1 + e) ~ 0.09 leaves rolling, so mu is only bounded.
 
 Runs are kept short (reduced draws, a few trials where the sampler does not matter).

@@ -203,7 +203,6 @@ _SNAKE_NAME = re.compile(r"`([a-z]+(?:_[a-z]+)*)`")
 
 def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
     """The flags of every command that samples a posterior (infer, run, demo)."""
-    from ..data import INFERENCE_CHOICES
     from ..inference import DISCREPANCIES, LIKELIHOODS, SAMPLERS, EnsembleConfig, MHConfig
 
     d, e = MHConfig(), EnsembleConfig()
@@ -232,10 +231,7 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
                         "count less); none; or auto: added when the adequacy check fails "
                         "without it (default: the experiment's [inference] discrepancy, else "
                         "auto)")
-    g.add_argument("--population", choices=INFERENCE_CHOICES["population"], default=None,
-                   help="population likelihood: the family of each parameter's population, "
-                        "truncated to the prior's domain (default: the experiment's "
-                        "[inference] population, else normal)")
+    add_population(g)
     g.add_argument("--draws", type=integer(), metavar="N",
                    help=f"posterior draws kept in all (default {d.draws})")
     g.add_argument("--chains", type=integer(), metavar="N",
@@ -254,6 +250,16 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
                         "parameters)")
     add_memory_budget(g)
     add_quiet(p)
+
+
+def add_population(g) -> None:
+    """``--population FAMILY`` (the population likelihood's family)."""
+    from ..data import INFERENCE_CHOICES
+
+    g.add_argument("--population", choices=INFERENCE_CHOICES["population"], default=None,
+                   help="population likelihood: the family of each parameter's population, "
+                        "truncated to the prior's domain (default: the experiment's "
+                        "[inference] population, else normal)")
 
 
 def add_memory_budget(g) -> None:

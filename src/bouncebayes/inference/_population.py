@@ -176,6 +176,17 @@ def hat_weights(nodes: np.ndarray, domain: tuple[float, float], mean: np.ndarray
     return out
 
 
+def binned_density(edges: np.ndarray, mean: np.ndarray, sd: np.ndarray,
+                   domain: tuple[float, float], family: str) -> np.ndarray:
+    """(R, bins): the truncated population's density averaged over each bin of ``edges``
+    (finite for any spread: a zero spread puts 1 / width in the bin of the mean)."""
+    mean, sd = np.atleast_1d(mean).astype(float), np.atleast_1d(sd).astype(float)
+    f, _ = _parts(np.asarray(edges, dtype=float), mean, sd, family)
+    fd, _ = _parts(np.asarray(domain, dtype=float), mean, sd, family)
+    return np.diff(f, axis=1) / np.diff(edges)[None, :] / np.maximum(fd[:, 1:] - fd[:, :1],
+                                                                     TINY)
+
+
 def sample_population(rng: np.random.Generator, mean: np.ndarray, sd: np.ndarray,
                       domain: tuple[float, float], family: str) -> np.ndarray:
     """One draw per row from the truncated population (inverse CDF)."""

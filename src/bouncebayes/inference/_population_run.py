@@ -320,7 +320,6 @@ def infer_population(experiment, trials, sampler: str, seed: int, config, noise:
     from ._mh import sample_mh
     from ._population import hyper_names, hyper_priors, make_population, refined
     from ._posterior import LogPosterior
-    from ._summary import diagnostics, summarize_parameter, warnings_for
 
     names = experiment.parameter_names
     hyper = hyper_names(names)
@@ -347,21 +346,29 @@ def infer_population(experiment, trials, sampler: str, seed: int, config, noise:
             break
     pop, reps, regime, check, loglik = run_population(like, draws, experiment, trials,
                                                       rng_pass)
-    diag = diagnostics(draws.samples, hyper)
+    params, warns = _summaries(post, draws, pop, check, notes)
+    return InferenceResult(experiment, trials, "population", sampler, int(seed), config, post,
+                           draws, tuple(params), regime, tuple(warns), like.describe(),
+                           time.perf_counter() - start, loglik, reps, budget, check,
+                           discrepancy, None, pop)
+
+
+def _summaries(post, draws: Draws, pop: Population, check: Adequacy, notes: list[str]):
+    """The hyper-parameters' summaries (spreads at zero and mu's population among rolling
+    bounces as bounds) and the warnings in words."""
+    from ._summary import diagnostics, summarize_parameter, warnings_for
+
+    diag = diagnostics(draws.samples, post.names)
     misfit = "" if check.adequate else MISFIT
     share = pop.record["share_of_bounces_rolling"]
     params = []
-    for i, (h, u, p) in enumerate(zip(hyper, units, post.priors, strict=True)):
+    for i, (h, u, p) in enumerate(zip(post.names, post.units, post.priors, strict=True)):
         x = draws.samples[..., i].ravel()
         s = summarize_parameter(h, u, p, x, diag[h], misfit=misfit)
         params.append(_population_bound(s, x, share))
     warns = notes + ([] if check.adequate else [check.verdict]) + warnings_for(
         params, draws.samples, post.priors, draws.info, impossible_data=bool(notes))
-    warns += population_warnings(like, pop)
-    return InferenceResult(experiment, trials, "population", sampler, int(seed), config, post,
-                           draws, tuple(params), regime, tuple(warns), like.describe(),
-                           time.perf_counter() - start, loglik, reps, budget, check,
-                           discrepancy, None, pop)
+    return params, warns + population_warnings(post.likelihood, pop)
 
 
 BURN_IN = 2000  #: mh burn-in with the default settings (the paper's 100 tunes too little)

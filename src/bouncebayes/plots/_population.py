@@ -23,7 +23,7 @@ def population_band(result, k: int, edges: np.ndarray) -> tuple[np.ndarray, ...]
     """Per bin of ``edges``: the population density (bin averages, finite for any spread) of
     evenly spaced draws, summarised as their 5 %, 50 % and 95 % quantiles and their mean (the
     predictive density of a new bounce)."""
-    from ..inference._population import _parts
+    from ..inference import population_density
 
     pop = result.population
     like_family = pop.record["family"]
@@ -33,10 +33,7 @@ def population_band(result, k: int, edges: np.ndarray) -> tuple[np.ndarray, ...]
     mean = s[pick, result.names.index(f"{name}_mean")]
     sd = s[pick, result.names.index(f"{name}_sd")]
     domain = result.experiment.priors[name].support
-    f, _ = _parts(edges, mean, sd, like_family)
-    fd, _ = _parts(np.asarray(domain, dtype=float), mean, sd, like_family)
-    dens = np.diff(f, axis=1) / np.diff(edges)[None, :] / np.maximum(fd[:, 1:] - fd[:, :1],
-                                                                     1e-300)
+    dens = population_density(edges, mean, sd, domain, like_family)
     lo, med, hi = np.quantile(dens, [0.05, 0.5, 0.95], axis=0)
     return lo, med, hi, dens.mean(axis=0)
 
