@@ -45,7 +45,7 @@ from ..data import Experiment, Prior, Trials, Uniform
 from ._memory import DEFAULT_MEMORY_BUDGET, batch_rows
 
 FAMILIES = ("normal", "lognormal")
-POINTS = {1: 1025, 2: 257}  #: first grid nodes per parameter (refined by halving the spacing)
+POINTS = {1: 1025, 2: 129}  #: first grid nodes per parameter (refined by halving the spacing)
 MAX_POINTS = {1: 8193, 2: 513}  #: finest grid tried
 COARSE_POINTS = {1: 257, 2: 41}  #: the coarse grid that finds where the likelihoods live
 SVD_TOL = 1e-6  #: singular values kept, relative to each trial's largest
@@ -370,26 +370,51 @@ def _support(w):
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=True)
 def _marginals(w0, w1, ut, vt, start, lo0, hi0, lo1, hi1, out):
     """out[r, i] = w0[r] . L_i . w1[r] from the factors, summing only where both the weights
-    and the trial's support are nonzero (a compiled loop: the samplers' inner step)."""
-    for r in range(w0.shape[0]):
-        a0, b0 = _support(w0[r])
-        a1, b1 = _support(w1[r])
-        for i in range(start.size - 1):
-            total = 0.0
-            for k in range(start[i], start[i + 1]):
+    and the trial's support are nonzero (a compiled loop: the samplers' inner step). Each
+    factor is read once for all rows, while it is in cache; fastmath lets the compiler reorder
+    the dot products' sums into SIMD lanes, a change of rounding only."""
+    n_rows = w0.shape[0]
+    a0 = np.empty(n_rows, dtype=np.int64)
+    b0 = np.empty(n_rows, dtype=np.int64)
+    a1 = np.empty(n_rows, dtype=np.int64)
+    b1 = np.empty(n_rows, dtype=np.int64)
+    for r in range(n_rows):
+        a0[r], b0[r] = _support(w0[r])
+        a1[r], b1[r] = _support(w1[r])
+    for i in range(start.size - 1):
+        for r in range(n_rows):
+            out[r, i] = 0.0
+        for k in range(start[i], start[i + 1]):
+            for r in range(n_rows):
                 x = 0.0
-                for j in range(max(lo0[k], a0), min(hi0[k], b0)):
+                for j in range(max(lo0[k], a0[r]), min(hi0[k], b0[r])):
                     x += w0[r, j] * ut[k, j]
-                if x == 0.0:
-                    continue
                 y = 0.0
-                for j in range(max(lo1[k], a1), min(hi1[k], b1)):
+                for j in range(max(lo1[k], a1[r]), min(hi1[k], b1[r])):
                     y += w1[r, j] * vt[k, j]
-                total += x * y
-            out[r, i] = total
+                out[r, i] += x * y
+
+
+@njit(cache=True)
+def _log_marginals(theta, nodes0, lo0_dom, hi0_dom, nodes1, lo1_dom, hi1_dom, two, lognormal,
+                   ut, vt, start, lo0, hi0, lo1, hi1, log_max, out):
+    """Each trial's log marginal likelihood of the hyper-parameter rows ``theta`` (mean, sd
+    per parameter): the hat weights, :func:`_marginals` and the logarithms in one call."""
+    n_rows = theta.shape[0]
+    w0 = np.empty((n_rows, nodes0.size))
+    w1 = np.ones((n_rows, nodes1.size))
+    _hat_kernel(nodes0, lo0_dom, hi0_dom, theta[:, 0].copy(), theta[:, 1].copy(), lognormal,
+                w0)
+    if two:
+        _hat_kernel(nodes1, lo1_dom, hi1_dom, theta[:, 2].copy(), theta[:, 3].copy(),
+                    lognormal, w1)
+    _marginals(w0, w1, ut, vt, start, lo0, hi0, lo1, hi1, out)
+    for r in range(n_rows):
+        for i in range(out.shape[1]):
+            out[r, i] = log_max[i] + math.log(max(out[r, i], TINY))
 
 
 # ------------------------------------------------------------------ the likelihood
@@ -432,16 +457,17 @@ class PopulationLikelihood:
                 for k, (c, dom) in enumerate(zip(self.grid.nodes, self.domains, strict=True))]
 
     def pointwise(self, theta: np.ndarray) -> np.ndarray:
-        """(R, trials): each trial's log marginal likelihood."""
-        theta = np.atleast_2d(theta)
-        w = self.weights(theta)
-        if len(w) == 1:
-            w.append(np.ones((theta.shape[0], 1)))
-        f = self._factors
-        m = np.empty((theta.shape[0], f.start.size - 1))
-        _marginals(w[0], w[1], f.ut, f.vt, f.start, f.lo0, f.hi0, f.lo1, f.hi1, m)
-        with np.errstate(divide="ignore"):
-            return self.grid.log_max + np.log(np.maximum(m, TINY))
+        """(R, trials): each trial's log marginal likelihood (one compiled call: weights,
+        sums, logarithms)."""
+        theta = np.ascontiguousarray(np.atleast_2d(theta), dtype=float)
+        f, g = self._factors, self.grid
+        nodes1 = g.nodes[1] if len(g.nodes) > 1 else np.ones(1)
+        dom1 = self.domains[1] if len(self.domains) > 1 else (0.0, 0.0)
+        out = np.empty((theta.shape[0], f.start.size - 1))
+        _log_marginals(theta, g.nodes[0], self.domains[0][0], self.domains[0][1], nodes1,
+                       dom1[0], dom1[1], len(g.nodes) > 1, self.family == "lognormal", f.ut,
+                       f.vt, f.start, f.lo0, f.hi0, f.lo1, f.hi1, g.log_max, out)
+        return out
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
         return self.pointwise(theta).sum(axis=1)
