@@ -211,6 +211,12 @@ def test_outputs_name_the_hyper_parameters_and_reload(demo_population, tmp_path)
         assert {"mu", "eta"} <= set(tree["population_predictive"].data_vars)
         assert tree["bounces"]["mu_shrinkage"].shape == (r.trials.n,)
         assert tree["log_likelihood"]["rebound"].shape[-1] == r.trials.n
+    # per-trial log-likelihood: leave-one-out applies (how well the population predicts a
+    # bounce left out), one pointwise term per trial
+    from bouncebayes.compare import loo_of
+
+    loo = loo_of(r)
+    assert loo.pareto_k.values.size == r.trials.n and np.isfinite(loo.elpd)
     back = load_result_from(tmp_path, r)
     assert back.population is not None
     np.testing.assert_array_equal(back.population.predictive, r.population.predictive)
@@ -224,16 +230,29 @@ def load_result_from(folder, r):
 
 
 def test_experiment_file_and_cli_choose_the_population(tmp_path, capsys):
+    """``likelihood = "population"`` in the experiment file and ``--population lognormal`` on
+    the command line reach the inference (a 12-trial table keeps it short)."""
     text = DEMO.experiment.read_text(encoding="utf-8").replace(
         'likelihood = "gaussian"', 'likelihood = "population"')
     exp = tmp_path / "experiment.toml"
     exp.write_text(text, encoding="utf-8")
+    lines = DEMO.trials.read_text(encoding="utf-8").splitlines()
+    table = tmp_path / "trials.csv"
+    table.write_text("\n".join(lines[:13]) + "\n", encoding="utf-8")
     out = tmp_path / "out"
-    code = main(["infer", str(exp), str(DEMO.trials), "--out", str(out), "--draws", "1000",
-                 "--burn-in", "2000", "--population", "normal", "--quiet"])
+    code = main(["infer", str(exp), str(table), "--out", str(out), "--draws", "400",
+                 "--population", "lognormal", "--quiet"])
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["likelihood"] == "population"
+    assert summary["population"]["family"] == "lognormal"
+    assert summary["sampler_settings"]["burn_in"] >= 2000  # the population's minimum
+    # bounces without spread: the population mean agrees with the gaussian likelihood's value
+    e = experiment()
+    gauss = infer(e, load_trials(table, e), likelihood="gaussian", sampler="grid", seed=1)
+    g = gauss.parameters[gauss.names.index("mu")]
+    m = summary["parameters"]["mu_mean"]
+    assert abs(m["mean"] - g.mean) < 1.5 * max(m["sd"], g.sd)
     assert "mu_sd" in capsys.readouterr().out
 
 
@@ -242,9 +261,25 @@ def test_report_shows_the_population(tmp_path):
 
     out = tmp_path / "run"
     outcome = run(DEMO.experiment, DEMO.trials, out, likelihood="population",
-                  config=MHConfig(draws=1000, burn_in=2000), log=lambda s: None)
+                  config=MHConfig(draws=400, burn_in=2000), log=lambda s: None)
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "population" in html.lower()
     assert (out / "figures" / "population.png").is_file()
     assert load_result(out).population is not None
     assert outcome.result.population is not None
+
+
+def test_stored_sbc_study_is_calibrated():
+    """benchmarks/results/population_sbc.json (``python benchmarks/population_sbc.py``): at least
+    200 campaigns, rank histograms uniform (chi-square p > 0.01) and 90 % coverage inside the
+    99 % binomial band for every hyper-parameter."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "population_sbc.json"
+    result = json.loads(path.read_text(encoding="utf-8"))
+    assert result["campaigns_done"] >= 200
+    lo, hi = result["coverage_bounds_99"]
+    for name in ("mu_mean", "mu_sd", "eta_mean", "eta_sd"):
+        p = result["parameters"][name]
+        assert p["chi2_p_value"] > 0.01, name
+        assert lo <= p["coverage90"] <= hi, name
