@@ -265,6 +265,13 @@ def test_report_shows_the_population(tmp_path):
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "population" in html.lower()
     assert (out / "figures" / "population.png").is_file()
+    from bouncebayes.plots import plot_population
+
+    fig = plot_population(outcome.result)
+    for ax in fig.axes:  # units on the axes, a legend
+        assert ax.get_xlabel() and "probability density" in ax.get_ylabel()
+        assert ax.get_legend() is not None
+    assert "(kg/s)" in fig.axes[1].get_xlabel()
     assert load_result(out).population is not None
     assert outcome.result.population is not None
 

@@ -256,12 +256,14 @@ def figure_makers(result: InferenceResult, prop, folder: str | Path,
 
     grid = Path(folder) / "grid.npz"
     density = plots.measured_density(result)
+    population = {"population": lambda: plots.plot_population(result, truth)} \
+        if result.population is not None else {}
     return {
         "data": lambda: plots.plot_data(density),
         "joint_posterior": lambda: plots.plot_joint_posterior(
             result, grid if grid.is_file() else None, truth),
         "marginals": lambda: plots.plot_marginals(result, truth),
-        "population": lambda: plots.plot_population(result, truth),
+        **population,
         "trajectories": lambda: plots.plot_trajectories(prop, result.experiment.ball.radius),
         "predictive": lambda: plots.plot_predictive(prop, density),
         "forces": lambda: plots.plot_forces(prop),
