@@ -31,7 +31,7 @@ from scipy import integrate, stats
 
 from bouncebayes.cli import main
 from bouncebayes.data import demo_campaign, load_trials, make_trials, parse_experiment, synthesize
-from bouncebayes.inference import MHConfig, infer, write_outputs
+from bouncebayes.inference import MemoryBudgetError, MHConfig, infer, write_outputs
 from bouncebayes.inference._likelihood import make_likelihood
 from bouncebayes.inference._population import hat_weights, make_population
 from bouncebayes.report import load_result
@@ -191,6 +191,9 @@ def test_refusals_say_why(demo):
     e3 = parse_experiment(doc)
     with pytest.raises(ValueError, match="1 or 2 inferred parameters"):
         infer(e3, load_trials(DEMO.trials, e3), likelihood="population")
+    # 55 trials x 129 x 129 nodes x 25 bytes (likelihoods, factors, flags) = 21.8 MiB
+    with pytest.raises(MemoryBudgetError, match="integration grid"):
+        infer(e, t, likelihood="population", memory_budget=20_000_000)
     no_se = make_trials(e, rebound_speed=t.rebound_speed, rebound_angle=t.rebound_angle)
     with pytest.raises(ValueError, match="standard errors"):
         infer(e, no_se, likelihood="population")

@@ -42,7 +42,7 @@ from numba import njit
 from scipy import special
 
 from ..data import Experiment, Prior, Trials, Uniform
-from ._memory import DEFAULT_MEMORY_BUDGET, batch_rows
+from ._memory import DEFAULT_MEMORY_BUDGET, batch_rows, require
 
 FAMILIES = ("normal", "lognormal")
 POINTS = {1: 1025, 2: 129}  #: first grid nodes per parameter (refined by halving the spacing)
@@ -285,6 +285,11 @@ def measurement_grid(gauss, box: np.ndarray, budget: float = DEFAULT_MEMORY_BUDG
         idx = np.flatnonzero(np.any(alive, axis=tuple(j for j in range(d) if j != k)))
         zoom.append((c[max(idx.min() - 1, 0)], c[min(idx.max() + 1, c.size - 1)]))
     nodes = tuple(np.linspace(lo, hi, points or POINTS[d]) for lo, hi in zoom)
+    # log-likelihood, relative likelihood, its factors (float64 each) and the rolling flags
+    require(f"holding {y.shape[0]} trials' likelihoods on the integration grid "
+            f"({' x '.join(str(c.size) for c in nodes)} nodes)",
+            y.shape[0] * math.prod(c.size for c in nodes) * 25.0, budget,
+            "raise `memory_budget`, or split the table")
     ll, rolling = _loglik_nodes(gauss.forward, cov, y, nodes, 0.25 * budget, per_row)
     peak = ll.reshape(ll.shape[0], -1).max(axis=1)
     rel = np.exp(ll - peak.reshape((-1,) + (1,) * d))
