@@ -110,7 +110,12 @@ def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int 
     modes = marginal_modes(tc, float(tc.min()), float(tc.max())) if tc.size else ()
     match = predictive_match(result, speed, angle)
     notes = []
-    if result.likelihood != "gaussian":
+    if result.likelihood == "population":
+        notes.append("the propagated draws are new bounces from the population predictive "
+                     "(each a draw of the population's mean and spread, then of one bounce's "
+                     "parameters); the predictive distribution of the measured rebounds is "
+                     "each trial's: a new bounce at its own incidence, plus its noise")
+    elif result.likelihood != "gaussian":
         notes.append("the predictive distribution is the rebound at the nominal incidence "
                      "pushed forward from the posterior, as in the paper's Fig. 7")
     return Propagation(theta, bounces, speed, angle, histories, match, modes, n_failed,
