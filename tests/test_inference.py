@@ -601,7 +601,7 @@ def test_cli_experiment_without_parameters_is_one_line(tmp_path, capsys):
 @pytest.mark.parametrize("kwargs, message", [
     ({"sampler": "hmc"}, "`sampler` must be one of 'mh', 'ensemble', 'grid'; got 'hmc'"),
     ({"likelihood": "poisson"},
-     "`likelihood` must be one of 'kde', 'gaussian', 'consistent'; got 'poisson'"),
+     "`likelihood` must be one of 'kde', 'gaussian', 'consistent', 'population'; got 'poisson'"),
     ({"noise": "estimated"}, "`noise` must be one of 'auto', 'given', 'inferred'; got 'estimated'"),
 ])
 def test_bad_names_are_rejected(small_table, kwargs, message):

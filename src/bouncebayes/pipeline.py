@@ -158,7 +158,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
         argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",),
-        memory_budget: int | None = None) -> RunOutcome:
+        memory_budget: int | None = None, population: str | None = None) -> RunOutcome:
     """Run every stage into the run folder ``out``, which changes only if all succeed.
 
     Arguments:
@@ -180,6 +180,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         argv: the command line, recorded in the provenance of every file.
         figure_formats: the files of each figure: PNG always, and "svg" or "pdf" if asked.
         memory_budget: as :func:`bouncebayes.inference.infer` (bytes; its default if None).
+        population: as :func:`bouncebayes.inference.infer` (the population likelihood's
+            family; the experiment's if None).
     """
     out, data, experiment_path = Path(out), Path(data), Path(experiment_path)
     check_run_folder(out)
@@ -193,6 +195,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
                     noise=noise, discrepancy=discrepancy, progress=progress)
     if memory_budget is not None:
         settings["memory_budget"] = memory_budget
+    if population is not None:
+        settings["population"] = population
     times: dict[str, float] = {}
     with staged_output(out, "folder") as stage:
         result, prop = _analyse(experiment_path, data, stage, out, settings, times, log, fps,

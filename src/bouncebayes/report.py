@@ -22,6 +22,13 @@ from .pipeline import EXPERIMENT_FILE, RUN_FILES, TRIALS_FILE, TRUTH_FILE
 
 
 CAPTIONS = {
+    "population": "Population likelihood: the density of each parameter over the bounces "
+                  "(normal or lognormal, truncated to the prior), its median and 90 % band "
+                  "over the posterior of the population's mean and spread, and the predictive "
+                  "density of a new bounce (what a DEM simulation samples from), against the "
+                  "prior; ticks: each measured bounce's estimate on its own (grey) and with "
+                  "the population (black), which pulls poorly measured bounces towards the "
+                  "population mean.",
     "data": "Measured rebound speed and angle: histograms and the Gaussian kernel density "
             "estimate of the measured rebounds that the kde likelihood evaluates (MATLAB "
             "ksdensity's normal-reference bandwidth; paper Fig. 3). The same density is the "
@@ -249,11 +256,14 @@ def figure_makers(result: InferenceResult, prop, folder: str | Path,
 
     grid = Path(folder) / "grid.npz"
     density = plots.measured_density(result)
+    population = {"population": lambda: plots.plot_population(result, truth)} \
+        if result.population is not None else {}
     return {
         "data": lambda: plots.plot_data(density),
         "joint_posterior": lambda: plots.plot_joint_posterior(
             result, grid if grid.is_file() else None, truth),
         "marginals": lambda: plots.plot_marginals(result, truth),
+        **population,
         "trajectories": lambda: plots.plot_trajectories(prop, result.experiment.ball.radius),
         "predictive": lambda: plots.plot_predictive(prop, density),
         "forces": lambda: plots.plot_forces(prop),
@@ -376,6 +386,37 @@ def _result_section(result: InferenceResult, truth: dict | None) -> list[str]:
             "<h2>Diagnostics and warnings</h2>", f"<ul>{warns}</ul>"]
 
 
+def _population_section(result: InferenceResult) -> list[str]:
+    """The population likelihood's answer in words: how each parameter varies from contact to
+    contact (or only a bound), and how much the population moved each bounce's estimate."""
+    pop = result.population
+    if pop is None:
+        return []
+    rec = pop.record
+    rows = []
+    for name in pop.names:
+        e, b = rec["predictive"][name], rec["bounces"][name]
+        shrink = b["median_shrinkage"]
+        rows.append([name, e["unit"] or "-",
+                     "bound only" if "bound" in e else
+                     f"[{e['quantiles']['5%']:.4g}, {e['quantiles']['95%']:.4g}]",
+                     f"{b['median_sd_alone']:.3g}", f"{b['median_sd_with_population']:.3g}",
+                     "-" if shrink is None else f"{shrink:.2f}"])
+    items = "".join(f"<li>{html.escape(w)}</li>" for w in rec["statements"])
+    return ["<h2>Population of the bounces</h2>",
+            f"<p>Every bounce has its own parameters, drawn from a {html.escape(rec['family'])}"
+            f" population truncated to the prior; the table above gives the posterior of its "
+            f"means and spreads (<code>&lt;parameter&gt;_mean</code>, "
+            f"<code>&lt;parameter&gt;_sd</code>).</p><ul>{items}</ul>",
+            _table(rows, ["parameter", "unit", "90 % of new bounces",
+                          "median sd of a bounce on its own",
+                          "median sd with the population", "median shrinkage"]),
+            "<p>Shrinkage: the share of the way from a bounce's own estimate to the population "
+            "mean that the population moved it (0: not at all, 1: all the way). New bounces "
+            "for a simulation are drawn from the population predictive "
+            "(<code>posterior.nc</code>, group <code>population_predictive</code>).</p>"]
+
+
 def _adequacy_section(result: InferenceResult) -> list[str]:
     """Does the model reproduce the data: the verdict, the checks' numbers, the discrepancy."""
     a = result.adequacy
@@ -486,7 +527,8 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
     e = result.experiment
     sections = [f"<h1>bouncebayes report: {html.escape(e.name)}</h1>",
                 f"<p class='meta'>{html.escape(e.description)}</p>",
-                *_result_section(result, truth), *_experiment_section(result),
+                *_result_section(result, truth), *_population_section(result),
+                *_experiment_section(result),
                 *_prediction_section(prop_summary), *_derived_section(folder),
                 *_figures_section(figures),
                 *_provenance_section(result, provenance)]

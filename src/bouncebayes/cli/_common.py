@@ -211,8 +211,10 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
                    help="gaussian: every bounce = model + measurement noise (the uncertainty "
                         "of one true value); kde: the paper's (density of the measured "
                         "rebounds at the simulated one); consistent: data-consistent inversion "
-                        "(the parameters' bounce-to-bounce distribution) (default: the "
-                        "experiment's [inference] likelihood, else gaussian)")
+                        "(the parameters' bounce-to-bounce distribution); population: each "
+                        "bounce its own parameters from an inferred population (<p>_mean, "
+                        "<p>_sd) plus measurement noise (default: the experiment's "
+                        "[inference] likelihood, else gaussian)")
     g.add_argument("--sampler", choices=SAMPLERS, default="mh",
                    help="mh: the paper's Metropolis-Hastings; ensemble: emcee; grid: exact "
                         "quadrature (up to 3 parameters)")
@@ -229,6 +231,7 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
                         "count less); none; or auto: added when the adequacy check fails "
                         "without it (default: the experiment's [inference] discrepancy, else "
                         "auto)")
+    add_population(g)
     g.add_argument("--draws", type=integer(), metavar="N",
                    help=f"posterior draws kept in all (default {d.draws})")
     g.add_argument("--chains", type=integer(), metavar="N",
@@ -249,6 +252,16 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
     add_quiet(p)
 
 
+def add_population(g) -> None:
+    """``--population FAMILY`` (the population likelihood's family)."""
+    from ..data import INFERENCE_CHOICES
+
+    g.add_argument("--population", choices=INFERENCE_CHOICES["population"], default=None,
+                   help="population likelihood: the family of each parameter's population, "
+                        "truncated to the prior's domain (default: the experiment's "
+                        "[inference] population, else normal)")
+
+
 def add_memory_budget(g) -> None:
     """``--memory-budget SIZE`` (bytes; suffixes K, M, G)."""
     g.add_argument("--memory-budget", type=byte_size, default=None, metavar="SIZE",
@@ -262,6 +275,8 @@ def inference_options(args: argparse.Namespace) -> dict:
     and the memory budget."""
     budget = getattr(args, "memory_budget", None)
     out = {"likelihood": args.likelihood, "noise": args.noise, "discrepancy": args.discrepancy}
+    if getattr(args, "population", None) is not None:
+        out["population"] = args.population
     return out | ({} if budget is None else {"memory_budget": budget})
 
 

@@ -20,9 +20,10 @@ def loo_of(result):
     get ArviZ's own."""
     from ..inference import inference_data
 
-    if result.likelihood != "gaussian" or result.log_likelihood is None:
+    if result.likelihood not in ("gaussian", "population") or result.log_likelihood is None:
         raise ValueError(f"leave-one-out cross-validation needs a log-likelihood per trial "
-                         f"(the gaussian likelihood); this result's is {result.likelihood}")
+                         f"(the gaussian or population likelihood); this result's is "
+                         f"{result.likelihood}")
     tree = inference_data(result)
     try:
         return _loo(tree)

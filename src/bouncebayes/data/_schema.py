@@ -40,9 +40,10 @@ OPTIONAL = object()  # default marker: may be absent, no value
 
 # The choices of the [inference] table, which the inference's arguments share.
 INFERENCE_CHOICES: dict[str, tuple[str, ...]] = {
-    "likelihood": ("kde", "gaussian", "consistent"),
+    "likelihood": ("kde", "gaussian", "consistent", "population"),
     "noise": ("auto", "given", "inferred"),
     "discrepancy": ("auto", "none", "normal", "student-t"),
+    "population": ("normal", "lognormal"),
 }
 
 SECTIONS: dict[str, dict[str, Key]] = {
@@ -106,8 +107,9 @@ SECTIONS: dict[str, dict[str, Key]] = {
     },
     "inference": {
         "likelihood": Key(str, "how the bounces inform the parameters (docs/likelihoods.md): "
-                               "the paper's kde, the gaussian measurement model, or "
-                               "data-consistent inversion; `--likelihood` overrides it", "",
+                               "the paper's kde, the gaussian measurement model, "
+                               "data-consistent inversion, or the hierarchical population "
+                               "model; `--likelihood` overrides it", "",
                           "gaussian", choices=INFERENCE_CHOICES["likelihood"]),
         "noise": Key(str, "gaussian: the table's standard errors (given), noise levels "
                           "inferred, or auto (given when every trial has them); `--noise` "
@@ -117,6 +119,10 @@ SECTIONS: dict[str, dict[str, Key]] = {
                                 "student-t for outliers), none, or auto (added when the "
                                 "adequacy check fails without it); `--discrepancy` overrides "
                                 "it", "", "auto", choices=INFERENCE_CHOICES["discrepancy"]),
+        "population": Key(str, "population: the family of each parameter's bounce-to-bounce "
+                               "population, truncated to the prior's domain (lognormal for "
+                               "positive parameters); `--population` overrides it", "",
+                          "normal", choices=INFERENCE_CHOICES["population"]),
     },
     "trajectories": {
         "rotation_deg": Key(float, "rotation from the camera frame to the plane-aligned frame "

@@ -50,6 +50,9 @@ from ._mh import step as mh_step
 from ._outputs import inference_data as inference_data
 from ._outputs import write_outputs as write_outputs
 from ._pass import Replicates as Replicates
+from ._population import FAMILIES as POPULATION_FAMILIES
+from ._population import binned_density as population_density
+from ._population import hyper_names as population_hyper_names
 from ._posterior import LogPosterior as LogPosterior
 from ._summary import ParameterSummary as ParameterSummary
 from ._summary import marginal_modes as marginal_modes
@@ -60,7 +63,8 @@ __all__ = [
     "BYTES_PER_BOUNCE", "DEFAULT_MEMORY_BUDGET", "LIKELIHOODS", "MEANINGS", "SAMPLERS", "SAMPLER_CONFIGS", "SAMPLER_MEANINGS", "Draws",
     "EnsembleConfig", "EnsembleInfo", "EnsembleRun", "EnsembleState", "Forward", "GridConfig",
     "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",
-    "MHState", "MemoryBudgetError", "ParameterSummary", "Replicates",
+    "MHState", "MemoryBudgetError", "POPULATION_FAMILIES", "population_density",
+    "population_hyper_names", "ParameterSummary", "Replicates",
     "ensemble_init", "ensemble_step", "format_table", "infer", "inference_data",
     "load_inference", "marginal_modes", "plan_memory", "mh_init", "mh_step", "noise_priors",
     "sampler_config", "write_outputs",

@@ -64,6 +64,7 @@ class InferenceResult:
     adequacy: Adequacy | None = None
     discrepancy: str = "none"  #: the model discrepancy of this posterior
     first_fit: dict | None = None  #: with discrepancy "auto": the fit without it, summarised
+    population: Any = None  #: likelihood "population": predictive, per-bounce estimates
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -72,7 +73,16 @@ class InferenceResult:
     @property
     def observations(self) -> tuple[str, ...]:
         """What the pointwise log-likelihood is over: the trials, or the whole campaign."""
-        return self.trials.labels if self.likelihood == "gaussian" else ("campaign",)
+        return (self.trials.labels if self.likelihood in ("gaussian", "population")
+                else ("campaign",))
+
+    def parameter_draws(self) -> tuple[np.ndarray, tuple[str, ...]]:
+        """Draws of the model parameters (chains, draws, d) and their names: the posterior's,
+        or with the population likelihood the population predictive (a new bounce's
+        parameters per draw), which is what propagates to new bounces."""
+        if self.population is not None:
+            return self.population.predictive, self.population.names
+        return self.draws.samples, self.names
 
     def samples(self, name: str) -> np.ndarray:
         """All draws of one parameter, chains flattened."""
@@ -99,6 +109,8 @@ class InferenceResult:
             "discrepancy_meaning": DISCREPANCY_MEANINGS[self.discrepancy],
             "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
             "fit_without_discrepancy": self.first_fit,
+            **({"population": self.population.to_dict()} if self.population is not None
+               else {}),
             "bouncebayes_version": __version__, "seconds": self.seconds,
         }
 
@@ -106,7 +118,8 @@ class InferenceResult:
 def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = None,
           sampler: str | None = None, seed: int = 0, config: Any = None,
           noise: str | None = None, discrepancy: str | None = None, progress: bool = False,
-          memory_budget: int = DEFAULT_MEMORY_BUDGET) -> InferenceResult:
+          memory_budget: int = DEFAULT_MEMORY_BUDGET,
+          population: str | None = None) -> InferenceResult:
     """Posterior of the experiment's inferred parameters given the trials, and whether the
     model reproduces them (``InferenceResult.adequacy``).
 
@@ -114,9 +127,11 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = No
         experiment: the experiment (ball, incidence, priors of the inferred parameters, and in
             its [inference] table the defaults of ``likelihood``, ``noise``, ``discrepancy``).
         trials: the measured bounces.
-        likelihood: ``"gaussian"`` (measurement model), ``"kde"`` (the paper's) or
-            ``"consistent"`` (data-consistent inversion); see ``docs/likelihoods.md``; default:
-            the experiment's (``"gaussian"`` unless it says otherwise).
+        likelihood: ``"gaussian"`` (measurement model), ``"kde"`` (the paper's),
+            ``"consistent"`` (data-consistent inversion) or ``"population"`` (hierarchical:
+            each bounce its own parameters from an inferred population, whose means and
+            spreads ``<p>_mean``, ``<p>_sd`` are sampled); see ``docs/likelihoods.md``;
+            default: the experiment's (``"gaussian"`` unless it says otherwise).
         sampler: ``"mh"`` (the paper's Metropolis–Hastings), ``"ensemble"`` (emcee) or
             ``"grid"`` (exact quadrature, up to 3 parameters); default: the sampler of
             ``config``, else ``"mh"``.
@@ -137,6 +152,9 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = No
         memory_budget: bytes the inference may hold at once (default 2 GiB). Large tables and
             grids are worked through in batches within it; a request that cannot fit (a grid
             too fine, too many draws) is refused up front with the estimate.
+        population: for ``population``: the family of the population of each parameter,
+            ``"normal"`` or ``"lognormal"``, truncated to the prior's domain; default: the
+            experiment's (``"normal"``).
     """
     settings = experiment.inference
     likelihood = settings["likelihood"] if likelihood is None else likelihood
@@ -149,6 +167,12 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = No
     if not experiment.parameter_names:
         raise ValueError(f"{experiment.source}: no [parameters.NAME] table: nothing to infer")
     fixed = "none" if discrepancy == "auto" else discrepancy
+    if likelihood == "population":
+        from ._population_run import infer_population
+
+        family = settings.get("population", "normal") if population is None else population
+        return infer_population(experiment, trials, sampler, seed, config, noise, fixed,
+                                family, progress, budget)
     result = _infer_once(experiment, trials, likelihood, sampler, seed, config, noise, fixed,
                          progress, budget)
     if discrepancy != "auto" or result.adequacy is None or result.adequacy.adequate or (
@@ -287,7 +311,19 @@ def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
     arrays = read_posterior(posterior, names)
     discrepancy = summary.get("discrepancy", "none")
     extra: dict[str, Any] = {}
-    if set(names) - set(experiment.priors):
+    population = None
+    if summary["likelihood"] == "population":
+        from ._population import hyper_priors
+        from ._population_run import Population
+
+        record = summary["population"]
+        model = tuple(record["parameters"])
+        extra = hyper_priors(experiment, model)
+        pred = arrays.get("population_predictive") or {}
+        population = Population(model, tuple(experiment.unit(n) for n in model),
+                                np.stack([pred[n] for n in model], axis=-1),
+                                arrays.get("bounces") or {}, record)
+    elif set(names) - set(experiment.priors):
         extra = discrepancy_priors(trials) if discrepancy != "none" else noise_priors(trials)
     priors = tuple(experiment.priors[n] if n in experiment.priors else extra[n] for n in names)
     units = tuple(p["unit"] for p in summary["parameters"].values())
@@ -307,7 +343,7 @@ def load_inference(posterior: str | Path, summary: dict, experiment: Experiment,
                            arrays["log_likelihood"], None if rep is None else Replicates(*rep),
                            int(summary.get("memory_budget_bytes", DEFAULT_MEMORY_BUDGET)),
                            _saved_adequacy(summary, trials, arrays), discrepancy,
-                           summary.get("fit_without_discrepancy"))
+                           summary.get("fit_without_discrepancy"), population)
 
 
 def _saved_adequacy(summary: dict, trials: Trials, arrays: dict) -> Adequacy | None:

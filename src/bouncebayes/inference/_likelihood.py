@@ -57,6 +57,13 @@ MEANINGS = {
                   "times observed density over the prior's predicted density). It describes "
                   "bounce-to-bounce variability of the parameters, not the uncertainty of one "
                   "value.",
+    "population": "a hierarchical model: every bounce has its own parameters, drawn from a "
+                  "population (normal or lognormal, truncated to the prior's domain) whose "
+                  "mean and spread (<parameter>_mean, <parameter>_sd) are inferred; each "
+                  "bounce is the rebound simulated for its own incidence and parameters plus "
+                  "Gaussian measurement noise. The spread is bounce-to-bounce variability, "
+                  "separated from the noise; the population predictive is what a new bounce "
+                  "looks like.",
 }
 DISCREPANCIES: tuple[str, ...] = INFERENCE_CHOICES["discrepancy"]
 DISCREPANCY_PARAMETERS = ("discrepancy_speed", "discrepancy_angle")
@@ -87,6 +94,8 @@ POINTWISE_MEANING = {
     "consistent": "one term per draw (observation `campaign`): the consistent likelihood is "
                   "one density ratio at one simulated rebound and does not factor over "
                   "trials, so leave-one-out cross-validation across trials is not defined",
+    "population": "per trial: the log of each trial's likelihood integrated over its own "
+                  "parameters against the population",
 }
 
 
@@ -398,7 +407,14 @@ def make_likelihood(name: str, experiment: Experiment, trials: Trials, names: tu
                     memory_budget: float = DEFAULT_MEMORY_BUDGET) -> Likelihood:
     """Build the named likelihood for the inferred parameters ``names`` (model parameters);
     ``discrepancy`` ("none", "normal" or "student-t"; gaussian only) adds an inferred model
-    error; ``memory_budget``: bytes its preparation may use for model evaluations at once."""
+    error; ``memory_budget``: bytes its preparation may use for model evaluations at once.
+    ``population`` builds the hierarchical likelihood of the hyper-parameters (normal
+    population; ``_population.make_population`` for the other settings)."""
+    if name == "population":
+        from ._population import make_population
+
+        return make_population(experiment, trials, names, noise=noise,  # type: ignore[return-value]
+                               discrepancy=discrepancy, memory_budget=memory_budget)
     if name in ("kde", "consistent"):
         if discrepancy not in ("none", "auto"):
             raise ValueError(f"`discrepancy` ({discrepancy!r}) applies to the gaussian "

@@ -7,7 +7,10 @@ posterior.nc holds the groups ArviZ users expect: ``posterior`` (chain, draw), `
 ``campaign`` term per draw for kde and consistent; see ``_likelihood``), ``posterior_predictive``
 (replicated rebound speed and angle at a subset of draws, whose indices are the ``draw``
 coordinate), ``adequacy`` (per trial: standardised residuals of rebound speed and angle and the
-posterior predictive p-value of the adequacy check) and provenance attributes on the root. It opens with ``xarray.open_datatree`` and
+posterior predictive p-value of the adequacy check) and provenance attributes on the root.
+With the population likelihood also ``population_predictive`` (chain, draw: one new bounce's
+parameters per posterior draw) and ``bounces`` (per trial: each bounce's estimate under the
+population, alone, and the shrinkage). It opens with ``xarray.open_datatree`` and
 ``arviz_base.convert_to_datatree``.
 """
 
@@ -81,6 +84,13 @@ def inference_data(result: Any):
         tree["adequacy"] = xr.DataTree(xr.Dataset(
             {k: (("trial",), np.asarray(v, dtype=float))
              for k, v in result.adequacy.per_trial().items()}, coords={"trial": list(t.labels)}))
+    pop = getattr(result, "population", None)
+    if pop is not None:  # a new bounce's parameters per draw, and each bounce's estimates
+        tree["population_predictive"] = xr.DataTree(arviz_base.dict_to_dataset(
+            {n: pop.predictive[..., i] for i, n in enumerate(pop.names)}))
+        tree["bounces"] = xr.DataTree(xr.Dataset(
+            {k: (("trial",), np.asarray(v, dtype=float)) for k, v in pop.bounces.items()},
+            coords={"trial": list(t.labels)}))
     rep = result.replicates
     if rep is not None:
         tree["posterior_predictive"] = xr.DataTree(arviz_base.dict_to_dataset(
@@ -139,6 +149,11 @@ def read_posterior(path: str | Path, names: tuple[str, ...]) -> dict[str, Any]:
         out["log_likelihood"] = tree["log_likelihood"]["rebound"].values
     out["adequacy"] = ({k: tree["adequacy"][k].values for k in PER_TRIAL}
                        if "adequacy" in tree else None)
+    if "population_predictive" in tree:
+        pp = tree["population_predictive"]
+        out["population_predictive"] = {str(k): pp[str(k)].values for k in pp.data_vars}
+        bounces = tree["bounces"]
+        out["bounces"] = {str(k): bounces[str(k)].values for k in bounces.data_vars}
     if "posterior_predictive" in tree:
         pp = tree["posterior_predictive"]
         out["replicates"] = (pp["draw"].values, pp["rebound_speed"].values,

@@ -169,6 +169,11 @@ def warnings_for(summaries: list[ParameterSummary], samples: np.ndarray, priors,
     return out
 
 
+def _is_spread(name: str) -> bool:
+    """A population's spread (``<p>_sd``): zero is an answer (no bounce-to-bounce spread)."""
+    return name.endswith("_sd")
+
+
 def _pile_warning(s: ParameterSummary, x: np.ndarray, prior, impossible_data: bool) -> list[str]:
     low, high = prior.support
     remedy = ("widening the prior will not help: some bounces rebound faster than they "
@@ -178,7 +183,7 @@ def _pile_warning(s: ParameterSummary, x: np.ndarray, prior, impossible_data: bo
     for side, edge in (("lower", low), ("upper", high)):
         if not math.isfinite(edge) or not all(map(math.isfinite, prior.support)):
             continue
-        if side == "lower" and s.name in ZERO_IS_AN_ANSWER:
+        if side == "lower" and (s.name in ZERO_IS_AN_ANSWER or _is_spread(s.name)):
             continue
         near = np.mean(np.abs(x - edge) <= 0.01 * (high - low))
         if near > 0.05:

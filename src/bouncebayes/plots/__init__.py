@@ -20,6 +20,7 @@ from ._limits import robust_limits as robust_limits
 from ._posterior import plot_diagnostics as plot_diagnostics
 from ._posterior import plot_joint_posterior as plot_joint_posterior
 from ._posterior import plot_marginals as plot_marginals
+from ._population import plot_population as plot_population
 from ._propagation import plot_contact_time as plot_contact_time
 from ._propagation import plot_forces as plot_forces
 from ._propagation import plot_trajectories as plot_trajectories
@@ -29,5 +30,6 @@ from ._residuals import posterior_residuals as posterior_residuals
 
 __all__ = ["FIGURE_FORMATS", "STYLE", "Residuals", "measured_density", "plot_bounce", "plot_comparison", "plot_contact_time",
            "plot_data", "plot_derived", "plot_diagnostics", "plot_forces", "plot_joint_posterior",
-           "plot_marginals", "plot_predictive", "plot_residuals", "plot_trajectories",
-           "posterior_residuals", "robust_limits", "save_figure", "save_figures"]
+           "plot_marginals", "plot_population", "plot_predictive", "plot_residuals",
+           "plot_trajectories", "posterior_residuals", "robust_limits", "save_figure",
+           "save_figures"]

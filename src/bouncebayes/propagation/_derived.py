@@ -95,7 +95,8 @@ def _cautions(result) -> list[str]:
         out.append("the model does not reproduce the data (see the adequacy verdict): these "
                    "are the misfitting model's numbers, not measurements")
     for p in result.parameters:
-        if not p.identifiable:
+        spread_at_zero = p.name.endswith("_sd") and (p.bound or {}).get("side") == "upper"
+        if not p.identifiable and not spread_at_zero:  # no spread is an answer, not a gap
             out.append(f"{p.name} is not identified by the data ({p.paper_form()}): the "
                        f"quantities that depend on it spread over what its prior allows")
     return out

@@ -72,16 +72,17 @@ class Propagation:
 def draw_subset(result: InferenceResult, n: int, rng) -> dict:
     """A seeded subset of ``n`` draws: every model parameter (inferred from the draws, the
     others at their fixed values) and every inferred parameter, arrays of one length."""
-    flat = result.draws.samples.reshape(-1, result.draws.samples.shape[-1])
+    samples, names = result.parameter_draws()  # with a population: a new bounce's
+    flat = samples.reshape(-1, samples.shape[-1])
     pick = np.sort(rng.choice(flat.shape[0], size=min(n, flat.shape[0]), replace=False))
     theta = {}
     for name in result.experiment.model_parameters:
-        if name in result.names:
-            theta[name] = flat[pick, result.names.index(name)]
+        if name in names:
+            theta[name] = flat[pick, names.index(name)]
         else:
             theta[name] = np.full(pick.size, result.experiment.fixed_value(name))
-    for name in result.names:
-        theta.setdefault(name, flat[pick, result.names.index(name)])
+    for name in names:
+        theta.setdefault(name, flat[pick, names.index(name)])
     return theta
 
 
@@ -109,7 +110,12 @@ def propagate(result: InferenceResult, *, seed: int | None = None, n_draws: int 
     modes = marginal_modes(tc, float(tc.min()), float(tc.max())) if tc.size else ()
     match = predictive_match(result, speed, angle)
     notes = []
-    if result.likelihood != "gaussian":
+    if result.likelihood == "population":
+        notes.append("the propagated draws are new bounces from the population predictive "
+                     "(each a draw of the population's mean and spread, then of one bounce's "
+                     "parameters); the predictive distribution of the measured rebounds is "
+                     "each trial's: a new bounce at its own incidence, plus its noise")
+    elif result.likelihood != "gaussian":
         notes.append("the predictive distribution is the rebound at the nominal incidence "
                      "pushed forward from the posterior, as in the paper's Fig. 7")
     return Propagation(theta, bounces, speed, angle, histories, match, modes, n_failed,
