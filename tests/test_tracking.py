@@ -23,8 +23,8 @@ from bouncebayes._errors import InputFileError
 from bouncebayes.cli._track import add_track_subcommand, parse_numbers
 from bouncebayes.tracking import (CENTROID, EDGE_FIT, NOT_FOUND, Calibration, Surface,
                                   TrackerConfig, background_model, detect_surface, overlay_image,
-                                  read_frames, to_plane_frame, track_ball, track_video,
-                                  write_trajectory_csv)
+                                  read_frames, to_plane_frame, track_ball, track_video)
+from bouncebayes.data import write_trajectory
 
 NOISY = dict(exposure=1.0, noise_sigma=4.0, shadow=True)  # full-frame blur, noise, shadow
 
@@ -181,8 +181,8 @@ def test_rebound_from_tracked_video_is_within_the_kinematics_uncertainty(noisy, 
     scene, bounce, frames = noisy
     track = track_ball(frames)
     cal = Calibration(metres_per_px=scene.metres_per_px, source="truth")
-    path = write_trajectory_csv(tmp_path / "bounce.csv",
-                                *to_plane_frame(track, cal, surface_of(scene), scene.fps))
+    path = write_trajectory(tmp_path / "bounce.csv",
+                            *to_plane_frame(track, cal, surface_of(scene), scene.fps))
     fit = fit_kinematics(read_trajectory(path))
     # 3 standard errors (seed 0: z = -0.03 and 0.16). Over seeds 0-11 of this scene the
     # rebound speed's |z| <= 1.6 (RMS 0.7) and the angle's <= 3.2 (RMS 1.3); the incidence
@@ -290,17 +290,9 @@ def test_arguments_are_checked_at_the_boundary():
         Calibration.from_reference((1, 2), (1, 2), 0.1)
     with pytest.raises(ValueError, match=r"`reference length` must be a finite number > 0 m"):
         Calibration.from_reference((1, 2), (3, 4), 0.0)
-    with pytest.raises(ValueError, match=r"`t`, `x`, `y` must be 1-D and of one length"):
-        write_trajectory_csv("unused.csv", [0.0, 1.0], [0.0], [0.0])
 
 
 # --------------------------------------------------------------------------- outputs, CLI
-
-
-def test_trajectory_csv_has_the_kinematics_header(tmp_path):
-    path = write_trajectory_csv(tmp_path / "a.csv", [0.0, 0.001], [0.0, 0.002], [0.0128, 0.0127])
-    assert path.read_text().splitlines() == ["t,x,y", "0,0,0.0128", "0.001,0.002,0.0127"]
-    assert [p.name for p in tmp_path.iterdir()] == ["a.csv"]  # no temporary file left
 
 
 def test_overlay_is_a_png_of_the_scaled_frame(clean, tmp_path):
@@ -328,7 +320,8 @@ def test_track_command_writes_trajectory_overlay_and_record(noisy, tmp_path, cap
                     "--surface", f"{x1},{y1},{x2},{y2}"]) == 0
     assert "throw1: ball in 100/100 frames" in capsys.readouterr().out
     rows = np.loadtxt(out / "throw1.csv", delimiter=",", skiprows=1)
-    assert (out / "throw1.csv").read_text().startswith("t,x,y\n") and rows.shape == (100, 3)
+    assert (out / "throw1.csv").read_text().startswith("t,x,y,residual,visible,flag\n")
+    assert rows.shape == (100, 6) and (rows[:, 5] == 0).all()
     # ball-diameter scale (default: the paper's 25.6 mm ball, which the scene draws)
     truth = plane_positions(scene, bounce, rows[:, 0])
     # 1% scale, and 0.5 px for the frame whose exposure straddles the bounce

@@ -44,7 +44,7 @@ import numpy as np
 
 RIM_ORDER = 4      # harmonics of the rim level in the polar angle
 INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
-MAX_FRAMES = 15    # frames fitted per video
+MAX_FRAMES = 9     # frames fitted per video
 
 
 class RadiusFit(NamedTuple):
@@ -144,7 +144,14 @@ def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
     a, step = _design(q, px)
     a = a * px.weight[:, None]
     y = (px.grey - px.bg * (1.0 - step)) * px.weight
-    beta, *_ = np.linalg.lstsq(a, y, rcond=None)
+    # normal equations with a small ridge: ~10x faster than an SVD, and the columns are
+    # O(1) functions of the pixels (a near-degenerate column gets a coefficient ~0)
+    ata = a.T @ a
+    ata[np.diag_indices_from(ata)] += 1e-9 * (np.trace(ata) / len(ata) + 1.0)
+    try:
+        beta = np.linalg.solve(ata, a.T @ y)
+    except np.linalg.LinAlgError:
+        beta, *_ = np.linalg.lstsq(a, y, rcond=None)
     return y - a @ beta
 
 
@@ -222,12 +229,12 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
         try:
             fit = least_squares(res, q[~fixed], bounds=(lo[~fixed], hi[~fixed]),
                                 x_scale=0.05, diff_step=1e-4, xtol=1e-4, ftol=1e-4,
-                                max_nfev=15)
+                                max_nfev=12)
             scale = 1.4826 * float(np.median(np.abs(fit.fun))) + 1e-9
             px = px._replace(weight=(np.abs(fit.fun) <= 4.0 * scale).astype(np.float64))
             fit = least_squares(res, fit.x, bounds=(lo[~fixed], hi[~fixed]), args=(px,),
                                 x_scale=0.05, diff_step=1e-4, xtol=1e-4, ftol=1e-4,
-                                max_nfev=15)
+                                max_nfev=12)
         except (ValueError, np.linalg.LinAlgError):
             return None
         q[~fixed] = fit.x
