@@ -47,6 +47,22 @@ INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (b
 MAX_FRAMES = 9     # frames fitted per video
 
 
+# Systematic error of the edge model's radius, px, added in quadrature to the scatter across
+# frames: SYSTEMATIC_PX, plus a term that grows steeply where the blur is a large part of the
+# radius (there blur trades against the shading near the rim): BLUR_TERM * (sigma / r)^3 * r.
+# Both set from the sweep of benchmarks/tracking_accuracy.py (docs/tracking.md): errors up to
+# 0.09 px at sigma/r < 0.1, 0.14 px at 0.14, 0.5-0.9 px at 0.2-0.26.
+SYSTEMATIC_PX = 0.06
+BLUR_TERM = 6.0
+UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable
+
+
+def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
+    """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
+    ratio = 0.0 if blur_px is None else blur_px / radius_px
+    return SYSTEMATIC_PX + BLUR_TERM * ratio**3 * radius_px
+
+
 class RadiusFit(NamedTuple):
     """The ball's radius from the edge model: ``radius`` (px) and its standard error
     ``radius_se`` (px, from the scatter of single-frame radii with the shared blur and

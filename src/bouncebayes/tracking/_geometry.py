@@ -11,13 +11,8 @@ import cv2
 import numpy as np
 
 from .._validate import check_scalar
+from ._edge import edge_model_systematic_px
 from ._track import Track
-
-
-# Systematic error of the edge model's radius, px: the largest bias over the scenarios of
-# benchmarks/tracking_accuracy.py with lens blur up to 1 px (docs/tracking.md), added in
-# quadrature to the scatter across frames.
-EDGE_MODEL_SYSTEMATIC_PX = 0.06
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -50,15 +45,18 @@ class Calibration:
 
     @classmethod
     def from_ball_diameter(cls, diameter: float, radius_px: float,
-                           radius_se_px: float | None = None) -> Calibration:
+                           radius_se_px: float | None = None,
+                           blur_px: float | None = None) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
-        to which the edge model's systematic error is added in quadrature."""
+        to which the edge model's systematic error (:func:`edge_model_systematic_px`, with the
+        fitted blur ``blur_px``) is added in quadrature."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
-            rel = math.hypot(radius_se_px, EDGE_MODEL_SYSTEMATIC_PX) / radius_px
+            rel = math.hypot(radius_se_px,
+                             edge_model_systematic_px(radius_px, blur_px)) / radius_px
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 

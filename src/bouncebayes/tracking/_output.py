@@ -215,8 +215,10 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         calibration = Calibration.from_reference(*reference)
     else:
         diameter = PAPER_BALL_DIAMETER if ball_diameter is None else ball_diameter
+        fit = track.radius_fit
         calibration = Calibration.from_ball_diameter(diameter, track.ball_radius,
-                                                     track.ball_radius_se)
+                                                     track.ball_radius_se,
+                                                     fit.sigma if fit is not None else None)
     if surface is None:
         surface = detect_surface(track.background)
         if surface is None:
@@ -254,6 +256,21 @@ def _optional(v: float | None, digits: int = 6) -> float | None:
     return None if v is None or not math.isfinite(v) else round(float(v), digits)
 
 
+def blur_warning(track: Track) -> str | None:
+    """A sentence where the ball is so blurred for its size that its radius is unreliable."""
+    from ._edge import UNRELIABLE_BLUR
+
+    fit = track.radius_fit
+    if fit is None:
+        return ("the ball's radius is the median coverage radius (the edge model could not be "
+                "fitted): biased by blur and uneven light; give --reference")
+    if fit.sigma > UNRELIABLE_BLUR * fit.radius:
+        return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
+                "px: its radius, and the --ball-diameter scale, may be off by several percent "
+                "(the stated uncertainty allows for it); give --reference for a better scale")
+    return None
+
+
 def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) -> dict:
     """The tracking record of one video (``<name>.track.json``): input, calibration with its
     uncertainty, surface with its angle's uncertainty, per-frame pixels and quality, a quality
@@ -281,7 +298,8 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                  "edge_frames": list(fit.frames) if fit is not None else [],
                  "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
                  "exposure": _optional(fit.exposure, 3) if fit is not None else None,
-                 "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None},
+                 "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
+                 "warning": blur_warning(tr)},
         "ball_radius_px": _optional(tr.ball_radius, 4),
         "calibration": {"metres_per_pixel": cal.metres_per_px,
                         "metres_per_px": cal.metres_per_px,

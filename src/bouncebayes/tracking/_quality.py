@@ -3,7 +3,8 @@
 :func:`frame_quality` compares each found frame's coverage (``alpha``, as the centroid uses it)
 with a disk of the ball's coverage radius at the found centre: the RMS difference, in grey
 levels, is the frame's ``residual``. A frame whose residual stands out from the video's (more
-than ``FLAG_FACTOR`` times the median, and more than ``FLAG_FLOOR`` of the contrast) is flagged:
+than ``FLAG_FACTOR`` times the median, and more than ``FLAG_FLOOR`` of the contrast), or whose coverage radius falls short of the video's
+(by 4 robust SD, at least ``RADIUS_TOL``), is flagged:
 part of the ball is missing from its coverage (an unlit rim against a lit band, a contact
 shadow, an occluder), so its centroid is pulled off the centre. Costs ~20 us per frame.
 
@@ -17,11 +18,13 @@ import math
 
 import numpy as np
 
-from ._edge import MAX_FRAMES, RadiusFit, fit_radius
-from ._measure import CENTROID, NOT_FOUND, _Searcher
+from ._edge import MAX_FRAMES, UNRELIABLE_BLUR, RadiusFit, fit_radius
+from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
 
-FLAG_FACTOR = 3.0   # residual above FLAG_FACTOR x the video's median ...
+FLAG_FACTOR = 1.75  # residual above FLAG_FACTOR x the video's median ...
 FLAG_FLOOR = 0.06   # ... and above this fraction of the ball's contrast: flagged
+RADIUS_TOL = 0.03   # coverage radius off the video's median by more: flagged
+EDGE_FACTOR = 2.0   # for a ball cut by the frame edge: above EDGE_FACTOR x the median
 RAMP = 1.5          # px, width of the disk's edge ramp in the comparison
 
 
@@ -76,8 +79,17 @@ def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: 
         near = rho <= half
         rel[k] = math.sqrt(float(np.mean((alpha - model)[near] ** 2)))
         residual[k] = c * rel[k]
-    base = float(np.nanmedian(rel[whole]))
-    flag = (method != NOT_FOUND) & (rel > FLAG_FACTOR * base) & (rel > FLAG_FLOOR)
+    base = float(np.nanmedian(residual[whole]))
+    # a ball partly hidden or lost against the background also loses coverage: its coverage
+    # radius falls below the video's (a robust 4 SD, at least RADIUS_TOL)
+    ratio = radius / r - 1.0
+    spread = 1.4826 * float(np.nanmedian(np.abs(ratio[whole])))
+    with np.errstate(invalid="ignore"):
+        flag = (method != NOT_FOUND) & (residual > FLAG_FACTOR * base) & (rel > FLAG_FLOOR)
+        flag |= whole & (np.abs(ratio) > max(4.0 * spread, RADIUS_TOL))
+        # a ball cut by the frame edge is fitted with the video's radius on fewer pixels:
+        # held to a tighter limit
+        flag |= (method == EDGE_FIT) & (residual > EDGE_FACTOR * base)
     return residual, visible, flag
 
 
@@ -108,6 +120,8 @@ def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method
                      centre[pick], vel, r0)
     if fit is None:
         return None, (0.0, 0.0)
-    shift = np.median(fit.centres - centre[pick[list(fit.frames)]], axis=0)
-    return fit._replace(frames=tuple(int(pick[i]) for i in fit.frames)), \
-        (float(shift[0]), float(shift[1]))
+    fit = fit._replace(frames=tuple(int(pick[i]) for i in fit.frames))
+    if fit.sigma > UNRELIABLE_BLUR * fit.radius:  # the edge fits' centres are not better
+        return fit, (0.0, 0.0)
+    shift = np.median(fit.centres - centre[list(fit.frames)], axis=0)
+    return fit, (float(shift[0]), float(shift[1]))
