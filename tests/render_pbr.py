@@ -143,9 +143,9 @@ def _wall(shot: Shot, u: np.ndarray, v: np.ndarray, rng_seed: int) -> np.ndarray
     k = rng.uniform(0.05, 0.6, 12) * rng.choice([-1, 1], 12)
     ang = rng.uniform(0, np.pi, 12)
     ph = rng.uniform(0, 2 * np.pi, 12)
-    tex = sum(np.sin(ki * (np.cos(a) * u + np.sin(a) * v) + p) for ki, a, p in zip(k, ang, ph))
+    tex = sum(np.sin(ki * (np.cos(a) * u + np.sin(a) * v) + p) for ki, a, p in zip(k, ang, ph, strict=True))
     e, n = shot.axes()
-    height = (u - 0.0) * n[0] + (v - shot.surface_v) * n[1]   # + above the surface
+    height = u * n[0] + (v - shot.surface_v) * n[1]   # + above the surface
     wall = shot.wall + shot.texture * tex / math.sqrt(6.0)
     wall = wall + shot.band * np.exp(-0.5 * ((height - 4.0) / 3.0) ** 2)
     below = np.clip(0.5 - height, 0.0, 1.0)

@@ -446,7 +446,7 @@ def test_the_papers_camera(tmp_path):
 
 
 def test_frames_the_ball_model_does_not_fit_are_flagged_and_left_out(noisy, tmp_path):
-    from bouncebayes.kinematics import fit_kinematics, read_trajectory
+    from bouncebayes.kinematics import read_trajectory
     from bouncebayes.tracking import write_track_files
 
     scene, bounce, frames = noisy

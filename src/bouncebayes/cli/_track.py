@@ -100,7 +100,7 @@ def _settings(args: argparse.Namespace) -> dict:
                            threshold_sigma=args.threshold_sigma)
     reference = surface = None
     if args.reference is not None:
-        names = ("X1", "Y1", "X2", "Y2", "METRES")
+        names: tuple[str, ...] = ("X1", "Y1", "X2", "Y2", "METRES")
         if args.reference.count(",") == 5:
             names += ("SD",)
         x1, y1, x2, y2, metres, *sd = parse_numbers("--reference", args.reference, names)

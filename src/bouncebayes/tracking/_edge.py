@@ -45,6 +45,7 @@ import numpy as np
 RIM_ORDER = 4      # harmonics of the rim level in the polar angle
 INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
 MAX_FRAMES = 9     # frames fitted per video
+MAX_PIXELS = 500   # pixels fitted per frame (a large ball's are thinned)
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -192,12 +193,16 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels |
         grown[:, 1:] |= sat[:, :-1]
         grown[:, :-1] |= sat[:, 1:]
         near &= ~grown
-    n = int(near.sum())
+    idx = np.flatnonzero(near)
+    if idx.size > MAX_PIXELS:  # a large ball: every k-th pixel (raster order) holds the edge
+        idx = idx[::-(-idx.size // MAX_PIXELS)]
+    n = idx.size
+    uu, vv, sub = uu.ravel()[idx], vv.ravel()[idx], sub.ravel()[idx]
+    bgw = bg[v0:v1, u0:u1].ravel()[idx].astype(np.float64)
     speed = math.hypot(*vel)
     du, dv = (vel[0] / speed, vel[1] / speed) if speed > 0 else (1.0, 0.0)
     full = functools.partial(np.full, n)
-    return _Pixels(uu[near], vv[near], sub[near], bg[v0:v1, u0:u1][near].astype(np.float64),
-                   full(c[0]), full(c[1]), full(du), full(dv), full(speed),
+    return _Pixels(uu, vv, sub, bgw, full(c[0]), full(c[1]), full(du), full(dv), full(speed),
                    np.zeros(n, np.intp), 1, np.ones(n))
 
 
@@ -230,7 +235,7 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
     lo = np.array([q[0] - 2, q[1] - 2, 0.75 * q[2], 0.05, 0.0])
     hi = np.array([q[0] + 2, q[1] + 2, 1.3 * q[2], 3.0, 1.0 if speed > 0.2 else 1e-3])
     fit = px = None
-    for _ in range(2):
+    for _ in range(1 if blur else 2):  # twice: the pixels are chosen from the first fit
         b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
         px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
         if px is None or px.u.size < 40:
@@ -256,7 +261,8 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
         q[~fixed] = fit.x
     assert fit is not None and px is not None
     rms = math.sqrt(float(fit.fun @ fit.fun) / max(float(px.weight.sum()), 1.0))
-    return EdgeFit(*(float(v) for v in q), rms)
+    cx, cy, r, sigma, exposure = (float(v) for v in q)
+    return EdgeFit(cx, cy, r, sigma, exposure, rms)
 
 
 def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
