@@ -45,7 +45,7 @@ import numpy as np
 RIM_ORDER = 4      # harmonics of the rim level in the polar angle
 INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
 MAX_FRAMES = 9     # frames fitted per video
-MAX_PIXELS = 500   # pixels fitted per frame (a large ball's are thinned)
+MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -235,7 +235,7 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
     lo = np.array([q[0] - 2, q[1] - 2, 0.75 * q[2], 0.05, 0.0])
     hi = np.array([q[0] + 2, q[1] + 2, 1.3 * q[2], 3.0, 1.0 if speed > 0.2 else 1e-3])
     fit = px = None
-    for _ in range(1 if blur else 2):  # twice: the pixels are chosen from the first fit
+    for _ in range(2):  # twice: the pixels are chosen again from the first fit
         b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
         px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
         if px is None or px.u.size < 40:

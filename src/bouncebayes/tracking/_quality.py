@@ -21,9 +21,9 @@ import numpy as np
 from ._edge import MAX_FRAMES, UNRELIABLE_BLUR, RadiusFit, fit_radius
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
 
-FLAG_FACTOR = 1.75  # residual above FLAG_FACTOR x the video's median ...
+FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
 FLAG_FLOOR = 0.06   # ... and above this fraction of the ball's contrast: flagged
-RADIUS_TOL = 0.03   # coverage radius off the video's median by more: flagged
+RADIUS_TOL = 0.05   # coverage radius off the video's median by more: flagged
 EDGE_FACTOR = 2.0   # for a ball cut by the frame edge: above EDGE_FACTOR x the median
 RAMP = 1.5          # px, width of the disk's edge ramp in the comparison
 
