@@ -1,9 +1,9 @@
-"""The ball's radius from its edge: a blurred, shaded sphere fitted jointly to several frames.
+"""The ball's radius from its edge: a blurred, shaded sphere fitted to the pixels of its rim.
 
-Each pixel ``i`` near the ball is described by its distance ``rho_i`` from the ball's centre in
-its frame and its polar angle ``t_i``; ``u_i = r - rho_i`` is its depth inside the rim. The
-grey level is the background ``B`` where the ball does not cover it and the ball's radiance
-where it does, both blurred::
+Each pixel ``i`` near the ball is described by its distance ``rho_i`` from the ball's centre and
+its polar angle ``t_i``; ``u_i = r - rho_i`` is its depth inside the rim. The grey level is the
+background ``B`` where the ball does not cover it and the ball's radiance where it does, both
+blurred::
 
     I_i = B_i (1 - S_i) + sum_j beta_j f_j(u_i, t_i) + (1 - S_i) (o_0 + o_1 cos t + o_2 sin t)
 
@@ -18,19 +18,19 @@ where it does, both blurred::
   shading under any distant lighting to ~2 % (Ramamoorthi & Hanrahan 2001; Basri & Jacobs
   2003), limb darkening and side light included, plus the rim level's harmonics of order 2 to
   ``RIM_ORDER`` in ``t``; each blurred in closed form (``n_z = sqrt(u (2r - u)) / r``:
-  ``E[sqrt(u + e)_+]`` tabulated once; ``E[(u + e)_+]`` and ``E[(u + e)^2_+]`` exact);
-- the local background level on each side (``o``, per frame): a shadow, flicker.
+  ``E[sqrt(u + e)_+]`` from the parabolic cylinder function, tabulated once; ``E[(u + e)_+]``
+  and ``E[(u + e)^2_+]`` exact);
+- the local background level on each side (``o``): a shadow, flicker.
 
-So the ball and background levels on each side of the edge are fitted, never assumed. The
-lighting is fixed in the scene, so the ball's radiance coefficients ``beta`` are shared by all
-the frames fitted, as are ``r``, ``sigma`` and ``a``: a small ball (radius 5 px) is then held by
-the pixels of ~15 frames at different sub-pixel phases. The centres are the tracker's (their
-error moves the radius at second order only). The linear coefficients are solved by least
-squares for each ``(r, sigma, a)`` (variable projection), those three by
-``scipy.optimize.least_squares`` from the best of a grid (the model has local minima where blur
-trades against the shading near the rim). Saturated pixels (a specular highlight) are left out,
-and pixels the smooth model cannot follow (a highlight's lobe, texture on the ball) are
-down-weighted in a second pass. Written here because no library fits a blurred, shaded disk.
+So the ball and background levels on each side of the edge are fitted, never assumed. For each
+``(c, r, sigma, a)`` the linear coefficients are solved by least squares (variable
+projection), and those five by ``scipy.optimize.least_squares`` from the best point of a grid
+of radius and blur (the model has local minima where blur trades against the shading near the
+rim). Saturated pixels (a specular highlight) are left out, and pixels the smooth model cannot
+follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass.
+:func:`fit_radius` fits ~9 frames alone, then again with the blur and exposure held at their
+medians (shared by the video: one lens, one exposure), and takes the median radius. Written
+here because no library fits a blurred, shaded disk.
 """
 
 from __future__ import annotations
@@ -50,18 +50,19 @@ MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
 # frames: SYSTEMATIC_PX, plus a term that grows steeply where the blur is a large part of the
-# radius (there blur trades against the shading near the rim): BLUR_TERM * (sigma / r)^3 * r.
-# Both set from the sweep of benchmarks/tracking_accuracy.py (docs/tracking.md): errors up to
-# 0.09 px at sigma/r < 0.1, 0.14 px at 0.14, 0.5-0.9 px at 0.2-0.26.
+# radius (there blur trades against the shading near the rim): BLUR_TERM * (sigma / r)^4, with
+# the fitted sigma. Both set from the sweep of benchmarks/tracking_accuracy.py
+# (docs/tracking.md): errors up to ~0.07 px at sigma/r < 0.1, ~0.25 px at 0.14-0.15 and
+# 0.75-1.3 px at 0.18-0.26.
 SYSTEMATIC_PX = 0.06
-BLUR_TERM = 6.0
+BLUR_TERM = 600.0
 UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
     ratio = 0.0 if blur_px is None else blur_px / radius_px
-    return SYSTEMATIC_PX + BLUR_TERM * ratio**3 * radius_px
+    return SYSTEMATIC_PX + BLUR_TERM * ratio**4
 
 
 class RadiusFit(NamedTuple):
