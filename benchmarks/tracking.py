@@ -18,7 +18,7 @@ Measured separately, each the best of ``--repeats`` runs:
 
 Also reported: the RMS error (px) of the tracked centres against the rendered truth, and, as
 the baseline measured in the same run, :func:`track_ball` without the edge model of the ball's
-radius (``TrackerConfig(edge_model=False)``: what the tracker cost before issue 11); the edge
+radius (``TrackerConfig(edge_model=False)``: what the tracker cost before the edge model); the edge
 model adds a fixed cost per video (~9 frames fitted), so its share falls with the video's
 length. The 224 x 64 clip is the paper's Casio EX-ZR100 at 1000 fps (ball 10 px across).
 

@@ -12,7 +12,7 @@ code shared with the tracker or ``tests/video_helpers.py``) over a sweep of scen
 
 For each: the relative error of the ball's radius (= of the ``--ball-diameter`` scale), the
 stated relative standard deviation (``Calibration.relative_sd``) and their ratio (z), the RMS
-centre error of the trusted frames, frames found / flagged. Targets (issue 11): scale error
+centre error of the trusted frames, frames found / flagged. Targets (docs/tracking.md): scale error
 <= 0.5 % for radius >= 10 px and <= 2 % at 5 px over sigma 0-1.5 and exposure 0-80 %.
 
 ``python benchmarks/tracking_accuracy.py [--quick]`` writes

@@ -360,7 +360,7 @@ def test_track_command_option_errors_are_one_clear_message(tmp_path):
         0.0, 1.5, -2.0, 300.0]
 
 
-# ------------------------------------------- issue 11: scale, quality, uncertainty (render_pbr)
+# ------------------------------ scale, quality, uncertainty on an independent renderer (render_pbr)
 # The expected values in this section come from tests/render_pbr.py, a renderer that shares no
 # code with the tracker or video_helpers.py (physically based shading, supersampled edge, lens
 # PSF, exposure along the true path, sensor noise, codecs): the ball's true radius and centres,
@@ -396,7 +396,7 @@ def test_the_scale_comes_from_the_balls_edge(radius, sigma, exposure, light, lim
     cal = Calibration.from_ball_diameter(shot.diameter_m, track.ball_radius,
                                          track.ball_radius_se, track.radius_fit.sigma)
     err = cal.metres_per_px / shot.metres_per_px - 1.0
-    # issue 11's targets are 0.5 % at radius >= 10 px and 2 % at 5 px; the sweep of
+    # the targets (docs/tracking.md) are 0.5 % at radius >= 10 px and 2 % at 5 px; the sweep of
     # benchmarks/tracking_accuracy.py reaches 0.9 % and 4 % (sigma <= 0.7 px): the limits here
     # are what the edge model holds, not the targets. Measured: +0.7 %, ...
     assert abs(err) <= limit
@@ -405,7 +405,7 @@ def test_the_scale_comes_from_the_balls_edge(radius, sigma, exposure, light, lim
 
 
 def test_the_coverage_radius_the_edge_model_replaces_was_biased():
-    # the issue's diagnosis, kept as a check that the scenes above can fail: the median
+    # the old estimate's bias (docs/tracking.md §1), kept as a check that the scenes above can fail: the median
     # coverage radius (edge_model=False) is off by more than the target on the first scene
     from render_pbr import render
 
@@ -436,7 +436,7 @@ def test_the_papers_camera(tmp_path):
     assert tr.found[whole].all()  # found in every frame it is fully in
     ok = tr.trusted & whole
     assert ok.sum() >= 0.9 * whole.sum()
-    # measured 0.19 px RMS (issue 11 asks 0.15: not met after MJPEG at this size, see
+    # measured 0.19 px RMS (the target is 0.15: not met after MJPEG at this size, see
     # docs/tracking.md); the velocities below are what the centres are for
     assert rms(tr.centre[ok] - truth[ok]) < 0.3
     fit = fit_kinematics(read_trajectory(write_track_files(video, tmp_path)["trajectory"]))

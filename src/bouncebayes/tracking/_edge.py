@@ -99,7 +99,8 @@ class _Pixels(NamedTuple):
 def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
     """``G(z) = E[sqrt(z + Z)_+]``, ``Z ~ N(0, 1)``, on a grid of z: the Gaussian moment of a
     fractional power, ``E[(z + Z)_+^nu] = Gamma(nu + 1) phi(z) e^(z^2 / 4) D_(-nu-1)(-z)``
-    (``D`` the parabolic cylinder function; Winkelbauer 2012, arXiv:1209.4340, eq. 10)."""
+    (``D`` the parabolic cylinder function; from its integral representation, DLMF 12.5.1;
+    checked against direct quadrature to 1e-6)."""
     from scipy.special import pbdv
 
     z = np.linspace(-8.0, 30.0, 3801)
