@@ -576,3 +576,16 @@ def test_bad_calibration_input_is_one_line_naming_the_option(tmp_path):
         run_cli(["track", "a.avi", "--out", str(tmp_path), "--reference", "1,2,3,4,0"])
     with pytest.raises(ValueError, match=r"`--reference` 0,0,3,4,1,-1: `reference length SD`"):
         run_cli(["track", "a.avi", "--out", str(tmp_path), "--reference", "0,0,3,4,1,-1"])
+
+
+@pytest.mark.parametrize("z", [-4.0, -1.0, 0.0, 0.7, 3.0, 12.0])
+def test_the_blurred_limb_is_the_gaussian_moment(z):
+    from scipy.integrate import quad
+
+    from bouncebayes.tracking._edge import _sqrt_table
+
+    zs, g = _sqrt_table()
+    # independent: E[sqrt(z + Z)_+] by adaptive quadrature of the normal density
+    expected, _ = quad(lambda t: math.sqrt(max(z + t, 0.0)) * math.exp(-t * t / 2)
+                       / math.sqrt(2 * math.pi), -z, 40.0)
+    assert float(np.interp(z, zs, g)) == pytest.approx(expected, rel=1e-5, abs=1e-9)
