@@ -8,6 +8,12 @@ rebound speed's z-score against the rendered truth, with the kinematics' standar
 scale's stated relative SD (``scale_rel_sd``) in quadrature, and the z of the speed with the
 standard error alone (what a per-trial analysis that ignores the scale would claim).
 
+The kinematics' misfit gates reject a track whose residuals hold a trend (``p < 1e-4``): the
+tracked centres' errors are correlated along the track (the texture under the ball, the
+codec), and this footage has little pixel noise, so such trends are significant. Those tracks
+are reported with the gate's message and fitted again with the gates relaxed (``p_min =
+1e-9``, marked ``"gates": "relaxed"``) so that their z-scores can be shown too.
+
 ``python benchmarks/tracking_campaign.py`` writes ``benchmarks/results/tracking_campaign.json``.
 """
 
@@ -23,7 +29,7 @@ import sys  # noqa: E402
 import tempfile  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from bouncebayes.kinematics import fit_kinematics, read_trajectory  # noqa: E402
+from bouncebayes.kinematics import FitConfig, fit_kinematics, read_trajectory  # noqa: E402
 from bouncebayes.tracking import Surface, track_video, write_track_files  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -48,11 +54,17 @@ def main() -> dict:
             video = track_video(path, fps=shot.fps,
                                 surface=Surface.from_points((x1, y1), (x2, y2)))
             files = write_track_files(video, Path(tmp) / "out")
+            gates, rejected = "default", None
             try:
                 fit = fit_kinematics(read_trajectory(files["trajectory"]))
             except ValueError as exc:
-                rows.append({"seed": seed, "error": str(exc)})
-                continue
+                gates, rejected = "relaxed", str(exc)
+                try:
+                    fit = fit_kinematics(read_trajectory(files["trajectory"]),
+                                         config=FitConfig(p_min=1e-9))
+                except ValueError as exc2:
+                    rows.append({"seed": seed, "error": str(exc2), "rejected": rejected})
+                    continue
             truth = shot.throw.rebound_speed()
             sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
             rows.append({"seed": seed, "lighting": "dark" if seed % 2 else "side",
@@ -64,10 +76,12 @@ def main() -> dict:
                          "z": round((fit.rebound_speed - truth) / sd, 2),
                          "z_se_only": round((fit.rebound_speed - truth) / fit.rebound_speed_se,
                                             2),
-                         "flagged": int(video.track.flag.sum())})
+                         "flagged": int(video.track.flag.sum()), "gates": gates,
+                         "rejected_by_default_gates": rejected})
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     zs = [abs(r["z"]) for r in rows if "z" in r]
     result = {"benchmark": "tracking_campaign", "n": len(rows), "fitted": len(zs),
+              "passed_default_gates": sum(r.get("gates") == "default" for r in rows),
               "max_abs_z": max(zs) if zs else None,
               "within_3": sum(z <= 3 for z in zs), "rows": rows}
     RESULTS.write_text(json.dumps(result, indent=1) + "\n")
