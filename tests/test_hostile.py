@@ -307,7 +307,7 @@ def _output_cases():
 def _track_cases():
     base = ["track", "{root}/in/video.avi", "--out", "{out}"]
     options = {"--fps": ("0", "-1", "nan", "abc"),
-               "--reference": ("1,2,3", "a,b,c,d,e", "1,2,3,4,nan"),
+               "--reference": ("1,2,3", "a,b,c,d,e", "1,2,3,4,nan", "1,2,3,4,0", "0,0,3,4,1,-1"),
                "--surface": ("1,2", "x", "1,2,1,2"), "--ball-diameter": ("0", "-1", "abc"),
                "--polarity": ("sideways",), "--min-contrast": ("abc", "nan", "-5"),
                "--threshold-sigma": ("abc", "-1")}

@@ -212,5 +212,7 @@ def test_run_goes_from_a_folder_of_videos_to_a_report(tmp_path, capsys):
     assert sorted(p.name for p in (out / "trajectories").glob("*.csv")) == [
         "bounce_a.csv", "bounce_b.csv", "bounce_c.csv"]
     assert len(list((out / "tracking").glob("*.overlay.png"))) == 3
+    # the same tracking record as `bouncebayes track`, beside each trajectory (docs/tracking.md)
+    assert len(list((out / "trajectories").glob("*.track.json"))) == 3
     assert (out / "report.html").is_file()
     assert "3 of 3 trajectory files gave kinematics" in printed.err

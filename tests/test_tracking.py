@@ -23,8 +23,8 @@ from bouncebayes._errors import InputFileError
 from bouncebayes.cli._track import add_track_subcommand, parse_numbers
 from bouncebayes.tracking import (CENTROID, EDGE_FIT, NOT_FOUND, Calibration, Surface,
                                   TrackerConfig, background_model, detect_surface, overlay_image,
-                                  read_frames, to_plane_frame, track_ball, track_video,
-                                  write_trajectory_csv)
+                                  read_frames, to_plane_frame, track_ball, track_video)
+from bouncebayes.data import write_trajectory
 
 NOISY = dict(exposure=1.0, noise_sigma=4.0, shadow=True)  # full-frame blur, noise, shadow
 
@@ -181,8 +181,8 @@ def test_rebound_from_tracked_video_is_within_the_kinematics_uncertainty(noisy, 
     scene, bounce, frames = noisy
     track = track_ball(frames)
     cal = Calibration(metres_per_px=scene.metres_per_px, source="truth")
-    path = write_trajectory_csv(tmp_path / "bounce.csv",
-                                *to_plane_frame(track, cal, surface_of(scene), scene.fps))
+    path = write_trajectory(tmp_path / "bounce.csv",
+                            *to_plane_frame(track, cal, surface_of(scene), scene.fps))
     fit = fit_kinematics(read_trajectory(path))
     # 3 standard errors (seed 0: z = -0.03 and 0.16). Over seeds 0-11 of this scene the
     # rebound speed's |z| <= 1.6 (RMS 0.7) and the angle's <= 3.2 (RMS 1.3); the incidence
@@ -290,17 +290,9 @@ def test_arguments_are_checked_at_the_boundary():
         Calibration.from_reference((1, 2), (1, 2), 0.1)
     with pytest.raises(ValueError, match=r"`reference length` must be a finite number > 0 m"):
         Calibration.from_reference((1, 2), (3, 4), 0.0)
-    with pytest.raises(ValueError, match=r"`t`, `x`, `y` must be 1-D and of one length"):
-        write_trajectory_csv("unused.csv", [0.0, 1.0], [0.0], [0.0])
 
 
 # --------------------------------------------------------------------------- outputs, CLI
-
-
-def test_trajectory_csv_has_the_kinematics_header(tmp_path):
-    path = write_trajectory_csv(tmp_path / "a.csv", [0.0, 0.001], [0.0, 0.002], [0.0128, 0.0127])
-    assert path.read_text().splitlines() == ["t,x,y", "0,0,0.0128", "0.001,0.002,0.0127"]
-    assert [p.name for p in tmp_path.iterdir()] == ["a.csv"]  # no temporary file left
 
 
 def test_overlay_is_a_png_of_the_scaled_frame(clean, tmp_path):
@@ -328,7 +320,8 @@ def test_track_command_writes_trajectory_overlay_and_record(noisy, tmp_path, cap
                     "--surface", f"{x1},{y1},{x2},{y2}"]) == 0
     assert "throw1: ball in 100/100 frames" in capsys.readouterr().out
     rows = np.loadtxt(out / "throw1.csv", delimiter=",", skiprows=1)
-    assert (out / "throw1.csv").read_text().startswith("t,x,y\n") and rows.shape == (100, 3)
+    assert (out / "throw1.csv").read_text().startswith("t,x,y,residual,visible,flag\n")
+    assert rows.shape == (100, 6) and (rows[:, 5] == 0).all()
     # ball-diameter scale (default: the paper's 25.6 mm ball, which the scene draws)
     truth = plane_positions(scene, bounce, rows[:, 0])
     # 1% scale, and 0.5 px for the frame whose exposure straddles the bounce
@@ -365,3 +358,234 @@ def test_track_command_option_errors_are_one_clear_message(tmp_path):
         run_cli(["track", "a/v.avi", "b/v.mp4", "--out", str(tmp_path)])
     assert parse_numbers("--surface", "0,1.5,-2,3e2", ("X1", "Y1", "X2", "Y2")) == [
         0.0, 1.5, -2.0, 300.0]
+
+
+# ------------------------------ scale, quality, uncertainty on an independent renderer (render_pbr)
+# The expected values in this section come from tests/render_pbr.py, a renderer that shares no
+# code with the tracker or video_helpers.py (physically based shading, supersampled edge, lens
+# PSF, exposure along the true path, sensor noise, codecs): the ball's true radius and centres,
+# and the bounce's true rebound velocity.
+
+
+def pbr_shot(radius: float, sigma: float, exposure: float, **kw):
+    """A 72-frame bounce in which the ball moves ~1.5 px per frame whatever its size."""
+    from render_pbr import Shot, Throw
+
+    width, height = int(max(160, 16 * radius)), int(max(96, 10 * radius))
+    mpp = 0.0256 / (2 * radius)
+    throw = Throw(speed_in=1.5 * mpp * 1000.0 / 0.8, angle_in=50.0, t_contact=0.040,
+                  x_contact=0.5 * width * mpp)
+    return Shot(width=width, height=height, radius_px=radius, n_frames=72, slope_deg=0.0,
+                surface_v=height - 8.0, sigma_px=sigma, exposure=exposure, supersample=4,
+                throw=throw, **kw)
+
+
+DARK = dict(albedo=0.12, ambient=0.5, wall=170.0, plane=150.0, texture=12.0)
+
+
+@pytest.mark.parametrize("radius,sigma,exposure,light,limit", [
+    (10.0, 0.7, 0.4, {}, 0.01),           # side-lit bright ball, limb darkening, motion blur
+    (10.0, 0.0, 0.0, DARK, 0.01),         # dark ball on a bright textured wall
+    (5.0, 0.7, 0.0, DARK, 0.03),          # a 10 px ball
+])
+def test_the_scale_comes_from_the_balls_edge(radius, sigma, exposure, light, limit):
+    from render_pbr import render
+
+    shot = pbr_shot(radius, sigma, exposure, **light)
+    track = track_ball(render(shot))
+    cal = Calibration.from_ball_diameter(shot.diameter_m, track.ball_radius,
+                                         track.ball_radius_se, track.radius_fit.sigma)
+    err = cal.metres_per_px / shot.metres_per_px - 1.0
+    # the targets (docs/tracking.md) are 0.5 % at radius >= 10 px and 2 % at 5 px; the sweep of
+    # benchmarks/tracking_accuracy.py reaches 0.9 % and 4 % (sigma <= 0.7 px): the limits here
+    # are what the edge model holds, not the targets. Measured: +0.7 %, ...
+    assert abs(err) <= limit
+    assert abs(err) <= 3 * cal.relative_sd  # the stated uncertainty covers the error
+    assert track.radius_fit is not None and len(track.radius_fit.frames) >= 5
+
+
+def test_the_coverage_radius_the_edge_model_replaces_was_biased():
+    # the old estimate's bias (docs/tracking.md §1), kept as a check that the scenes above can fail: the median
+    # coverage radius (edge_model=False) is off by more than the target on the first scene
+    from render_pbr import render
+
+    shot = pbr_shot(10.0, 0.7, 0.4)
+    old = track_ball(render(shot), config=TrackerConfig(edge_model=False))
+    assert abs(old.ball_radius / shot.radius_px - 1.0) > 0.02  # measured -7 %
+
+
+def test_the_papers_camera(tmp_path):
+    """224 x 64 px at 1000 fps, a 10 px ball, MJPEG (Casio EX-ZR100, paper §3)."""
+    from render_pbr import Shot, Throw, render, write
+
+    from bouncebayes.kinematics import fit_kinematics, read_trajectory
+    from bouncebayes.tracking import write_track_files
+
+    shot = Shot(width=224, height=64, radius_px=5.0, n_frames=120, surface_v=50.0,
+                slope_deg=3.0, sigma_px=0.6, exposure=0.5, light=(-0.15, 0.25, 0.95),
+                supersample=4, seed=6, throw=Throw(speed_in=2.0, angle_in=35.0,
+                                                    t_contact=0.05, x_contact=0.05))
+    path = write(render(shot), tmp_path / "casio.avi", 1000.0, "MJPG")
+    x1, y1, x2, y2 = shot.surface_points()
+    video = track_video(path, fps=1000.0, surface=Surface.from_points((x1, y1), (x2, y2)))
+    truth = shot.true_centres()
+    r = shot.radius_px
+    whole = ((truth[:, 0] >= r) & (truth[:, 0] <= shot.width - 1 - r)
+             & (truth[:, 1] >= r) & (truth[:, 1] <= shot.height - 1 - r))
+    tr = video.track
+    assert tr.found[whole].all()  # found in every frame it is fully in
+    ok = tr.trusted & whole
+    assert ok.sum() >= 0.9 * whole.sum()
+    # measured 0.19 px RMS (the target is 0.15: not met after MJPEG at this size, see
+    # docs/tracking.md); the velocities below are what the centres are for
+    assert rms(tr.centre[ok] - truth[ok]) < 0.3
+    fit = fit_kinematics(read_trajectory(write_track_files(video, tmp_path)["trajectory"]))
+    speed_sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
+    assert abs(fit.rebound_speed - shot.throw.rebound_speed()) < 3 * speed_sd
+    assert abs(fit.rebound_angle - shot.throw.rebound_angle()) < 3 * fit.rebound_angle_se
+
+
+def test_frames_the_ball_model_does_not_fit_are_flagged_and_left_out(noisy, tmp_path):
+    from bouncebayes.kinematics import read_trajectory
+    from bouncebayes.tracking import write_track_files
+
+    scene, bounce, frames = noisy
+    truth = true_centres(scene, bounce)
+    post = int(truth[20, 0])  # a dark post in front of the ball's path, before the bounce
+    frames = frames.copy()
+    frames[:, :, post - 3:post + 3] = 30
+    track = track_ball(frames)
+    gap = np.abs(truth[:, 0] - post)
+    behind = (gap < scene.radius_px - 2.0) & track.found  # it hides a good part of the ball
+    clear = gap > scene.radius_px + 4.0  # it does not touch the ball
+    assert behind.sum() >= 3
+    assert track.flag[behind].mean() >= 0.8  # measured 1.0
+    assert track.flag[clear].mean() <= 0.05  # measured 0
+    # the flagged frames' centres are the ones pulled off (what the flag is for)
+    bad = behind & track.flag
+    assert rms(track.centre[bad] - truth[bad]) > 5 * rms(track.centre[clear] - truth[clear])
+    video = track_video_from_frames(frames, tmp_path, surface_of(scene))
+    files = write_track_files(video, tmp_path / "out")
+    header, *rows = files["trajectory"].read_text().splitlines()
+    assert header == "t,x,y,residual,visible,flag"
+    assert sum(r.endswith(",1.0") for r in rows) == int(video.track.flag.sum())
+    assert any("flagged by the tracker" in n for n in read_trajectory(files["trajectory"]).notes)
+    record = json.loads(files["record"].read_text())
+    assert record["quality"]["flagged"] == int(video.track.flag.sum()) > 0
+    assert record["per_frame"]["flag"] == video.track.flag.astype(int).tolist()
+    overlay = cv2.imread(str(files["overlay"]))
+    magenta = (overlay[..., 0] > 200) & (overlay[..., 1] < 100) & (overlay[..., 2] > 200)
+    assert magenta.sum() > 20  # flagged centres and the legend's swatch
+
+
+def test_kinematics_leave_flagged_frames_out_and_say_so(noisy, tmp_path):
+    from dataclasses import replace
+
+    from bouncebayes.kinematics import fit_kinematics, read_trajectory
+    from bouncebayes.tracking import write_track_files
+
+    scene, bounce, frames = noisy
+    video = track_video_from_frames(frames, tmp_path, surface_of(scene))
+    # frames 10-14 displaced by 3 px and flagged, as the tracker flags a hidden ball
+    centre, flag = video.track.centre.copy(), video.track.flag.copy()
+    centre[10:15] += 3.0
+    flag[10:15] = True
+    track = replace(video.track, centre=centre, flag=flag)
+    video = replace(video, track=track, trajectory=to_plane_frame(
+        track, video.calibration, video.surface, scene.fps))
+    files = write_track_files(video, tmp_path / "out")
+    fit = fit_kinematics(read_trajectory(files["trajectory"]))
+    assert any("5 row(s) flagged by the tracker (flag = 1) left out" in n for n in fit.notes)
+    assert fit.n_before + fit.n_after <= int(video.track.found.sum()) - 5
+    assert abs(fit.rebound_speed - bounce.rebound_speed()) < 3 * math.hypot(
+        fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
+
+
+def track_video_from_frames(frames, tmp_path, surface):
+    folder = write_png_sequence(frames, tmp_path / "frames")
+    return track_video(folder, fps=1000.0, surface=surface)
+
+
+def test_calibration_and_surface_uncertainty_reach_the_kinematics(noisy, tmp_path):
+    from bouncebayes.kinematics import read_trajectory
+    from bouncebayes.tracking import write_track_files
+
+    scene, _, frames = noisy
+    folder = write_png_sequence(frames, tmp_path / "throw")
+    video = track_video(folder, fps=1000.0)  # ball-diameter scale, detected surface
+    assert 0 < video.calibration.relative_sd < 0.02
+    # the detected surface's angle is within 3 of its stated SD of the rendered one
+    # (video_helpers draws the plane at `inclination` clockwise on screen: angle -15 deg)
+    sd = video.surface.angle_sd_deg
+    assert 0 < sd < 0.2 and abs(video.surface.angle + scene.inclination) < 3 * sd + 1e-3
+    files = write_track_files(video, tmp_path / "out")
+    traj = read_trajectory(files["trajectory"])
+    assert traj.scale_rel_sd == pytest.approx(video.calibration.relative_sd, rel=1e-3)
+    assert traj.surface_angle_sd_deg == pytest.approx(sd, rel=1e-3)
+
+
+def test_reference_precision_is_the_scales_uncertainty():
+    cal = Calibration.from_reference((0, 0), (300, 400), 0.5, 0.001)
+    assert cal.metres_per_px == pytest.approx(0.001) and cal.relative_sd == pytest.approx(0.002)
+    assert Calibration.from_reference((0, 0), (3, 4), 0.5).relative_sd is None
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rebound_speed_z_scores_of_a_rendered_campaign(seed, tmp_path):
+    # one campaign, one calibration per video from the ball's edge; z with the stated
+    # standard error and the scale's relative SD (a shared systematic in the inference)
+    from bouncebayes.kinematics import fit_kinematics, read_trajectory
+    from bouncebayes.tracking import write_track_files
+
+    scene, bounce = Scene(seed=seed, **NOISY), Bounce(speed_in=1.8 + 0.2 * seed)
+    folder = write_png_sequence(render(scene, bounce), tmp_path / f"throw{seed}")
+    x1, y1, x2, y2 = scene.surface_points()
+    video = track_video(folder, fps=1000.0, surface=Surface.from_points((x1, y1), (x2, y2)))
+    fit = fit_kinematics(read_trajectory(write_track_files(video, tmp_path)["trajectory"]))
+    sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
+    assert abs(fit.rebound_speed - bounce.rebound_speed()) < 3 * sd
+
+
+def test_run_writes_the_same_tracking_record_as_track(noisy, tmp_path, capsys):
+    from types import SimpleNamespace
+
+    from bouncebayes.pipeline import _track_videos
+
+    scene, _, frames = noisy
+    data = tmp_path / "videos"
+    data.mkdir()
+    write_video(frames, data / "throw.avi", 1000.0)
+    stage = tmp_path / "stage"
+    experiment = SimpleNamespace(ball=SimpleNamespace(diameter=scene.ball_diameter))
+    folder = _track_videos(data, experiment, stage, print, None, False)
+    run_record = json.loads((folder / "throw.track.json").read_text())
+    x1, y1, x2, y2 = scene.surface_points()
+    assert run_cli(["track", str(data / "throw.avi"), "--out", str(tmp_path / "out")]) == 0
+    track_record = json.loads((tmp_path / "out" / "throw.track.json").read_text())
+    track_record.pop("provenance")
+    assert set(run_record) == set(track_record)
+    for key in ("calibration", "surface", "ball", "quality"):
+        assert run_record[key] == track_record[key]
+    assert run_record["calibration"]["relative_sd"] > 0
+    assert (stage / "tracking" / "throw.overlay.png").exists()
+
+
+def test_bad_calibration_input_is_one_line_naming_the_option(tmp_path):
+    with pytest.raises(ValueError, match=r"`--reference` 1,2,3,4,0: `reference length` must be "
+                                         r"a finite number > 0 m"):
+        run_cli(["track", "a.avi", "--out", str(tmp_path), "--reference", "1,2,3,4,0"])
+    with pytest.raises(ValueError, match=r"`--reference` 0,0,3,4,1,-1: `reference length SD`"):
+        run_cli(["track", "a.avi", "--out", str(tmp_path), "--reference", "0,0,3,4,1,-1"])
+
+
+@pytest.mark.parametrize("z", [-4.0, -1.0, 0.0, 0.7, 3.0, 12.0])
+def test_the_blurred_limb_is_the_gaussian_moment(z):
+    from scipy.integrate import quad
+
+    from bouncebayes.tracking._edge import _sqrt_table
+
+    zs, g = _sqrt_table()
+    # independent: E[sqrt(z + Z)_+] by adaptive quadrature of the normal density
+    expected, _ = quad(lambda t: math.sqrt(max(z + t, 0.0)) * math.exp(-t * t / 2)
+                       / math.sqrt(2 * math.pi), -z, 40.0)
+    assert float(np.interp(z, zs, g)) == pytest.approx(expected, rel=1e-5, abs=1e-9)

@@ -87,7 +87,7 @@ def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
                   progress: bool) -> Path:
     """Track every video (or image-sequence folder) of ``data`` into ``stage/trajectories``,
     with an overlay image per video in ``stage/tracking``; unusable videos are listed."""
-    from .tracking import overlay_image, track_video, write_trajectory_csv
+    from .tracking import track_video, write_track_files
 
     inputs = video_inputs(data)
     folder = stage / "trajectories"
@@ -98,10 +98,12 @@ def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
         except InputFileError as exc:
             log(f"  skipped: {exc}")
             continue
-        name = video.source.name
-        write_trajectory_csv(folder / f"{name}.csv", *video.trajectory)
-        overlay_image(video.source.frames, video.track, stage / "tracking" / f"{name}.overlay.png",
-                      calibration=video.calibration, surface=video.surface, title=name)
+        # the same files as `bouncebayes track`; <name>.track.json beside <name>.csv, where
+        # the kinematics read its calibration uncertainty
+        write_track_files(video, folder, overlay_folder=stage / "tracking",
+                          settings={"fps": fps, "ball_diameter_m": experiment.ball.diameter,
+                                    "polarity": "auto", "background":
+                                    "per-pixel median of frames"})
         tracked += 1
     if not tracked:
         raise InputFileError(data, "no video could be tracked (each is listed above with the "

@@ -23,9 +23,12 @@ DESCRIPTION = ("Find the ball in every frame of each video (sub-pixel; backgroun
                "convert pixels to metres and rotate into the plane frame: x along the surface in "
                "the direction of travel, y along its outward normal. Writes DIR/<name>.csv "
                "(t,x,y in s and m, found frames only; t = frame index / fps), "
-               "DIR/<name>.overlay.png (positions over a superposition of frames) and "
-               "DIR/<name>.track.json (per-frame pixels, settings, provenance), the three "
-               "together. Pixel coordinates have the origin at the top-left of the frame.")
+               "with the per-frame quality columns residual, visible and flag (flagged frames are "
+               "left out by the kinematics), DIR/<name>.overlay.png (positions over a "
+               "superposition of frames; flagged frames in magenta) and DIR/<name>.track.json "
+               "(calibration with its relative SD, surface angle with its SD, per-frame pixels "
+               "and quality, settings, provenance), the three together. Pixel coordinates have "
+               "the origin at the top-left of the frame.")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -44,8 +47,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                        metavar="METRES",
                        help="scale from the ball's diameter and its median fitted radius "
                             "(the paper's ball by default)")
-    scale.add_argument("--reference", metavar="X1,Y1,X2,Y2,METRES",
-                       help="scale from two pixel points a known distance apart")
+    scale.add_argument("--reference", metavar="X1,Y1,X2,Y2,METRES[,SD]",
+                       help="scale from two pixel points a known distance apart, optionally "
+                            "with the distance's standard deviation (m), which becomes the "
+                            "scale's stated uncertainty")
     p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
                    help="two pixel points on the surface line; if not given, it is detected as "
                         "the longest straight edge of the background")
@@ -95,9 +100,16 @@ def _settings(args: argparse.Namespace) -> dict:
                            threshold_sigma=args.threshold_sigma)
     reference = surface = None
     if args.reference is not None:
-        x1, y1, x2, y2, metres = parse_numbers("--reference", args.reference,
-                                               ("X1", "Y1", "X2", "Y2", "METRES"))
-        reference = ((x1, y1), (x2, y2), metres)
+        names: tuple[str, ...] = ("X1", "Y1", "X2", "Y2", "METRES")
+        if args.reference.count(",") == 5:
+            names += ("SD",)
+        x1, y1, x2, y2, metres, *sd = parse_numbers("--reference", args.reference, names)
+        reference = ((x1, y1), (x2, y2), metres, sd[0] if sd else None)
+        from ..tracking import Calibration
+        try:
+            Calibration.from_reference(*reference)
+        except ValueError as exc:
+            raise ValueError(f"`--reference` {args.reference}: {exc}") from None
     if args.surface is not None:
         x1, y1, x2, y2 = parse_numbers("--surface", args.surface, ("X1", "Y1", "X2", "Y2"))
         try:
@@ -173,68 +185,37 @@ def check_unique_names(inputs: list[Path]) -> None:
 
 
 def write_outputs(result, out: Path, args: argparse.Namespace) -> dict[str, Path]:
-    """``<name>.csv``, ``<name>.overlay.png`` and ``<name>.track.json`` of one video."""
-    from .._io import write_json
-    from ..tracking import overlay_image, write_trajectory_csv
+    """``<name>.csv``, ``<name>.overlay.png`` and ``<name>.track.json`` of one video
+    (:func:`bouncebayes.tracking.write_track_files`, as ``bouncebayes run`` writes them)."""
+    from ..tracking import write_track_files
 
-    name = result.source.name
-    files = {"trajectory": out / f"{name}.csv", "overlay": out / f"{name}.overlay.png",
-             "record": out / f"{name}.track.json"}
-    write_trajectory_csv(files["trajectory"], *result.trajectory)
-    overlay_image(result.source.frames, result.track, files["overlay"],
-                  calibration=result.calibration, surface=result.surface, title=name)
-    write_json(files["record"], track_record(result, args))
-    return files
+    return write_track_files(result, out, settings=settings_record(args))
 
 
-def _floats(a) -> list:
-    import numpy as np
-
-    return [None if not math.isfinite(v) else round(float(v), 6) for v in np.ravel(a)]
-
-
-def track_record(result, args: argparse.Namespace) -> dict:
-    """The per-frame pixel track and the tracker's findings (provenance is stamped on)."""
-    import numpy as np
-
-    from ..tracking import EDGE_FIT, METHOD_NAMES
-
-    src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
-    n, h, w = src.frames.shape
-    name = src.name
-    return {
-        "input": str(src.path),
-        "frames": n, "width": w, "height": h,
-        "fps": src.fps, "fps_source": src.fps_source,
-        "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
-                    "threshold_grey": round(tr.threshold, 3),
-                    "background": str(args.background) if args.background else
-                    "per-pixel median of frames"},
-        "ball_radius_px": round(tr.ball_radius, 4),
-        "calibration": {"metres_per_px": cal.metres_per_px, "source": cal.source},
-        "surface": {"point_px": list(srf.point), "direction": list(srf.direction),
-                    "angle_deg": srf.angle, "source": srf.source},
-        "found": int(tr.found.sum()),
-        "not_found_frames": np.flatnonzero(~tr.found).tolist(),
-        "edge_fit_frames": np.flatnonzero(tr.method == EDGE_FIT).tolist(),
-        "per_frame": {"u_px": _floats(tr.centre[:, 0]), "v_px": _floats(tr.centre[:, 1]),
-                      "radius_px": _floats(tr.radius), "method": tr.method.tolist(),
-                      "methods": {str(k): v for k, v in METHOD_NAMES.items()}},
-        "outputs": {"trajectory": str(args.out / f"{name}.csv"),
-                    "overlay": str(args.out / f"{name}.overlay.png"),
-                    "record": str(args.out / f"{name}.track.json")},
-    }
+def settings_record(args: argparse.Namespace) -> dict:
+    """The tracker's options as the record stores them."""
+    return {"polarity": args.polarity, "min_contrast": args.min_contrast,
+            "threshold_sigma": args.threshold_sigma, "fps": args.fps,
+            "ball_diameter_m": None if args.reference else args.ball_diameter,
+            "reference": args.reference, "surface": args.surface,
+            "background": str(args.background) if args.background else
+            "per-pixel median of frames"}
 
 
 def summary_line(result, files: dict[str, Path]) -> str:
-    """What was found in one video, and where it went."""
-    from ..tracking import EDGE_FIT
+    """What was found in one video, and where it went (and a warning where the ball's radius,
+    so the scale, is unreliable)."""
+    from ..tracking import EDGE_FIT, blur_warning
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, found = len(tr.found), int(tr.found.sum())
     edge = int((tr.method == EDGE_FIT).sum())
+    flagged = int(tr.flag.sum())
+    unc = f" +- {100 * cal.relative_sd:.2g}%" if cal.relative_sd is not None else ""
+    angle = f" +- {srf.angle_sd_deg:.2g}" if srf.angle_sd_deg is not None else ""
     return (f"{src.name}: ball in {found}/{n} frames ({edge} cut by the frame edge, "
-            f"{n - found} not found), radius {tr.ball_radius:.2f} px, "
-            f"{cal.metres_per_px * 1e3:.4g} mm/px ({cal.source}), surface at "
-            f"{srf.angle:.2f} deg ({srf.source}), {src.fps:g} fps ({src.fps_source})\n"
-            f"  -> {files['trajectory']}  {files['overlay']}  {files['record']}")
+            f"{n - found} not found, {flagged} flagged), radius {tr.ball_radius:.2f} px, "
+            f"{cal.metres_per_px * 1e3:.4g} mm/px{unc} ({cal.source}), surface at "
+            f"{srf.angle:.2f}{angle} deg ({srf.source}), {src.fps:g} fps ({src.fps_source})\n"
+            f"  -> {files['trajectory']}  {files['overlay']}  {files['record']}"
+            + (f"\n  warning: {warning}" if (warning := blur_warning(tr)) else ""))

@@ -17,23 +17,35 @@ The pipeline, one pure function per stage (paper §3 did this by hand in Tracker
      rescaled by the shadow's depth just outside the ball;
    - a ball wholly in the frame is measured by the coverage centroid (exact for a disk of any
      size and for a motion-blurred disk, whose coverage centroid is the mid-exposure centre for a
-     straight path) and its radius by ``sqrt(sum(alpha) / pi)`` (blur conserves coverage);
+     straight path);
    - a ball cut by the frame edge is measured by a least-squares fit of an anti-aliased disk of
      the video's median radius to the coverage of the pixels that are in the frame.
 
    Frames where no ball is found, or where less than ``min_visible`` of it is in view, or whose
    radius disagrees with the median, are marked (``method == NOT_FOUND``), never interpolated.
+   Every found frame gets a quality figure (``Track.residual``: misfit of a disk to its
+   coverage; ``Track.visible``) and frames whose residual stands out are flagged
+   (``Track.flag``: part of the ball hidden or lost against the background).
+   The ball's radius, and so the ``--ball-diameter`` scale, comes from its edge
+   (``_edge.py``): a blurred, shaded sphere fitted to ~9 frames, with the local ball and
+   background levels on each side of the edge, the lens blur and the exposure's smear free;
+   the median radius and its standard error (``Track.radius_fit``). The same fits give the
+   ball's centre, and the coverage centroids are shifted by their median difference (a
+   constant bias of the centroid under side light).
 3. :class:`Calibration` (metres per pixel, from a reference length or the ball diameter) and
    :class:`Surface` (the surface line, from two points or :func:`detect_surface`).
 4. :func:`to_plane_frame`: ``x`` along the surface in the direction of travel, ``y`` along the
-   outward normal (the side of the ball), metres; then :func:`write_trajectory_csv` and
-   :func:`overlay_image`. :func:`track_video` runs stages 1-4 for one input (the ``track``
-   command calls it once per video).
+   outward normal (the side of the ball), metres; then :func:`write_track_files`: the
+   trajectory (``bouncebayes.data.write_trajectory``, with the per-frame quality columns), the
+   record ``<name>.track.json`` (calibration with its relative SD, surface angle with its SD,
+   quality summary, settings, version) and :func:`overlay_image`. :func:`track_video` runs
+   stages 1-4 for one input (``track`` and ``run`` call it once per video).
 
 Accuracy on the synthetic 1000 fps videos of ``tests/test_tracking.py`` (ball radius 12 px,
 textured background, surface line): 0.01 px RMS on clean frames, 0.04 px with full-frame motion
 blur, noise of 4 grey levels and a shadow, 0.02 px for a ball cut by the frame edge, 0.05-0.07 px
-after MJPG/MPEG-4 compression; the radius, and so the ``--ball-diameter`` scale, to ~0.3%. The
+after MJPG/MPEG-4 compression. The scale on an independent physically based renderer
+(``tests/render_pbr.py``; docs/tracking.md): see ``benchmarks/results/tracking_accuracy.json``. The
 errors are not white (they follow the background texture under the ball), ~0.05% of the speed
 on clean video: below the kinematics' standard errors for noise of a few grey levels, above them
 for nearly noise-free video.
@@ -57,9 +69,12 @@ from ._measure import METHOD_NAMES as METHOD_NAMES
 from ._measure import NOT_FOUND as NOT_FOUND
 from ._output import PAPER_BALL_DIAMETER as PAPER_BALL_DIAMETER
 from ._output import TrackedVideo as TrackedVideo
+from ._output import blur_warning as blur_warning
 from ._output import overlay_image as overlay_image
+from ._output import track_record as track_record
 from ._output import track_video as track_video
-from ._output import write_trajectory_csv as write_trajectory_csv
+from ._output import write_track_files as write_track_files
+from ._edge import RadiusFit as RadiusFit
 from ._track import POLARITIES as POLARITIES
 from ._track import Polarity as Polarity
 from ._track import Track as Track
@@ -74,7 +89,7 @@ from ._video import read_image as read_image
 
 __all__ = ["CENTROID", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND",
            "PAPER_BALL_DIAMETER", "POLARITIES", "VIDEO_SUFFIXES", "Calibration",
-           "PlaneTrajectory", "Polarity", "Surface", "Track", "TrackedVideo", "TrackerConfig",
-           "VideoSource", "background_model", "detect_surface", "overlay_image", "plane_axes",
-           "read_frames", "read_image", "to_plane_frame", "track_ball", "track_video",
-           "write_trajectory_csv"]
+           "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
+           "TrackerConfig", "VideoSource", "background_model", "blur_warning", "detect_surface",
+           "overlay_image", "plane_axes", "read_frames", "read_image", "to_plane_frame",
+           "track_ball", "track_record", "track_video", "write_track_files"]

@@ -11,36 +11,54 @@ import cv2
 import numpy as np
 
 from .._validate import check_scalar
+from ._edge import edge_model_systematic_px
 from ._track import Track
 
 
 @dataclass(frozen=True, kw_only=True)
 class Calibration:
-    """Image scale, metres per pixel; ``source`` says where it came from."""
+    """Image scale, metres per pixel; ``source`` says where it came from; ``relative_sd`` its
+    relative standard deviation (None: not known), shared by every length of the video."""
 
     metres_per_px: float
     source: str
+    relative_sd: float | None = None
 
     def __post_init__(self):
         check_scalar("metres_per_px", self.metres_per_px, unit="m/px", low=0.0, low_open=True)
+        if self.relative_sd is not None:
+            check_scalar("relative_sd", self.relative_sd, low=0.0)
 
     @classmethod
-    def from_reference(cls, p1: Sequence[float], p2: Sequence[float],
-                       length: float) -> Calibration:
-        """Two pixel points ``length`` metres apart (Tracker's calibration stick)."""
+    def from_reference(cls, p1: Sequence[float], p2: Sequence[float], length: float,
+                       length_sd: float | None = None) -> Calibration:
+        """Two pixel points ``length`` metres apart (Tracker's calibration stick), with the
+        length's stated standard deviation ``length_sd`` (m) if known."""
         length = check_scalar("reference length", length, unit="m", low=0.0, low_open=True)
+        if length_sd is not None:
+            length_sd = check_scalar("reference length SD", length_sd, unit="m", low=0.0)
         pixels = math.dist(_point("reference point 1", p1), _point("reference point 2", p2))
         if pixels == 0.0:
             raise ValueError(f"the two reference points must differ; got {tuple(p1)} twice")
-        return cls(metres_per_px=length / pixels, source="reference")
+        return cls(metres_per_px=length / pixels, source="reference",
+                   relative_sd=None if length_sd is None else length_sd / length)
 
     @classmethod
-    def from_ball_diameter(cls, diameter: float, radius_px: float) -> Calibration:
+    def from_ball_diameter(cls, diameter: float, radius_px: float,
+                           radius_se_px: float | None = None,
+                           blur_px: float | None = None) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
-        ``Track.ball_radius``."""
+        ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
+        to which the edge model's systematic error (:func:`edge_model_systematic_px`, with the
+        fitted blur ``blur_px``) is added in quadrature."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
-        return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter")
+        rel = None
+        if radius_se_px is not None and math.isfinite(radius_se_px):
+            rel = math.hypot(radius_se_px,
+                             edge_model_systematic_px(radius_px, blur_px)) / radius_px
+        return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
+                   relative_sd=rel)
 
 
 def _point(name: str, p) -> tuple[float, float]:
@@ -57,6 +75,7 @@ class Surface:
     point: tuple[float, float]
     direction: tuple[float, float]
     source: str
+    angle_sd_deg: float | None = None  #: standard error of the detected line's angle
 
     @classmethod
     def from_points(cls, p1: Sequence[float], p2: Sequence[float]) -> Surface:
@@ -102,7 +121,27 @@ def detect_surface(background: np.ndarray, *, min_length: float = 0.3) -> Surfac
     pts = np.column_stack([us[near], vs[near]]).astype(np.float32)
     dx, dy, px, py = cv2.fitLine(pts, cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
     return Surface(point=(float(px), float(py)), direction=(float(dx), float(dy)),
-                   source="detected")
+                   source="detected", angle_sd_deg=_angle_sd(pts, (dx, dy), (px, py)))
+
+
+def _angle_sd(pts: np.ndarray, direction, point) -> float:
+    """Standard error (deg) of a line's angle fitted to edge pixels ``pts``: the slope's
+    least-squares error ``s / sqrt(sum (a - mean a)^2)`` (``a`` the position along the line,
+    ``s`` the robust scatter across it, at least the 1/sqrt(12) px of integer pixel positions),
+    with the pixels counted in runs of ``CORRELATION_PX`` (neighbouring edge pixels of Canny's
+    one-pixel-wide edges are not independent)."""
+    d = pts - np.asarray(point, dtype=np.float32)
+    along = d @ np.asarray(direction)
+    across = d[:, 0] * direction[1] - d[:, 1] * direction[0]
+    scatter = max(1.4826 * float(np.median(np.abs(across - np.median(across)))),
+                  1 / math.sqrt(12))
+    spread = float(np.sum((along - along.mean()) ** 2))
+    if spread <= 0:
+        return math.nan
+    return math.degrees(scatter / math.sqrt(spread) * math.sqrt(CORRELATION_PX))
+
+
+CORRELATION_PX = 4.0
 
 
 class PlaneTrajectory(NamedTuple):

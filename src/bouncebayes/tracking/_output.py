@@ -1,5 +1,7 @@
-"""Outputs of one tracked video: the trajectory CSV, the overlay image, and :func:`track_video`
-(stages 1-4 for one input)."""
+"""Outputs of one tracked video: :func:`track_video` (stages 1-4 for one input) and
+:func:`write_track_files` (the trajectory file with its per-frame quality, the tracking record
+``<name>.track.json`` and the overlay image), which ``bouncebayes track`` and ``bouncebayes run``
+both call."""
 
 from __future__ import annotations
 
@@ -13,7 +15,8 @@ import cv2
 import numpy as np
 
 from .._errors import InputFileError
-from .._io import write_text, write_with
+from .._io import write_json, write_with
+from .._version import __version__
 from ._geometry import (
     Calibration,
     PlaneTrajectory,
@@ -29,18 +32,6 @@ from ._video import VideoSource, read_frames, read_image
 PAPER_BALL_DIAMETER = 0.0256  # m, paper §3 (= bouncebayes.PAPER_BALL.diameter)
 
 
-def write_trajectory_csv(path: str | os.PathLike, t, x, y) -> Path:
-    """``t,x,y`` (s, m, m), one row per found frame, written atomically."""
-    cols = [np.asarray(v, dtype=float) for v in (t, x, y)]
-    if len({c.shape for c in cols}) != 1 or cols[0].ndim != 1:
-        raise ValueError(f"`t`, `x`, `y` must be 1-D and of one length; got shapes "
-                         f"{[c.shape for c in cols]}")
-    if not all(np.isfinite(c).all() for c in cols):
-        raise ValueError("`t`, `x`, `y` must be finite (write found frames only)")
-    rows = "".join(f"{a:.10g},{b:.10g},{c:.10g}\n" for a, b, c in zip(*cols, strict=True))
-    return write_text(path, "t,x,y\n" + rows)
-
-
 def overlay_image(frames: np.ndarray, track: Track, path: str | os.PathLike, *,
                   calibration: Calibration | None = None, surface: Surface | None = None,
                   title: str = "") -> Path:
@@ -48,9 +39,10 @@ def overlay_image(frames: np.ndarray, track: Track, path: str | os.PathLike, *,
 
     The superposition keeps, per pixel, the sampled frame farthest from the background on the
     ball's side (frames spaced so that the copies of the ball barely overlap). Drawn on it:
-    every found centre (green: centroid, orange: edge fit), the fitted circle of the sampled
-    frames, the surface line and plane axes (red; ``x`` along travel, ``y`` outward), a scale bar,
-    and the count of frames found. Written atomically.
+    every found centre (green: centroid, orange: disk fit at the frame edge, magenta: flagged,
+    left out by the kinematics), the fitted circle of the sampled frames, the surface line and
+    plane axes (red; ``x`` along travel, ``y`` outward), a scale bar, a legend of the colours,
+    and the count of frames found and flagged. Written atomically.
     """
     picks = _spaced_frames(track)
     img = _superpose(frames, track, picks)
@@ -62,8 +54,11 @@ def overlay_image(frames: np.ndarray, track: Track, path: str | os.PathLike, *,
         _draw_axes(out, track, surface, zoom)
     if calibration is not None:
         _draw_scale_bar(out, calibration, zoom)
+    _draw_legend(out, track)
     label = f"{title}  " if title else ""
     label += f"{int(track.found.sum())}/{len(track.found)} frames found"
+    if track.flag.any():
+        label += f", {int(track.flag.sum())} flagged"
     (tw, th), _ = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, 0.55, 1)
     cv2.rectangle(out, (4, 4), (12 + tw, 12 + th), (0, 0, 0), -1)
     cv2.putText(out, label, (8, 8 + th), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1,
@@ -108,14 +103,36 @@ def _px(p, zoom: int) -> tuple[int, int]:
     return (int(round((p[0] + 0.5) * zoom * 16 - 8)), int(round((p[1] + 0.5) * zoom * 16 - 8)))
 
 
+_COLOURS = {CENTROID: (80, 220, 80), EDGE_FIT: (0, 160, 255)}
+_FLAGGED = (255, 60, 255)
+_LEGEND = (("ball centre", _COLOURS[CENTROID]), ("cut by the frame edge", _COLOURS[EDGE_FIT]),
+           ("flagged (left out)", _FLAGGED))
+
+
 def _draw_track(out, track: Track, picks: np.ndarray, zoom: int) -> None:
-    colours = {CENTROID: (80, 220, 80), EDGE_FIT: (0, 160, 255)}
     for k in np.flatnonzero(track.found):
-        colour = colours[int(track.method[k])]
+        colour = _FLAGGED if track.flag.size and track.flag[k] else \
+            _COLOURS[int(track.method[k])]
         cv2.circle(out, _px(track.centre[k], zoom), 2 * 16, colour, -1, cv2.LINE_AA, 4)
         if k in picks:
             cv2.circle(out, _px(track.centre[k], zoom), int(track.radius[k] * zoom * 16),
                        colour, 1, cv2.LINE_AA, 4)
+
+
+def _draw_legend(out, track: Track) -> None:
+    """The colours of the centres, top right (only the kinds present)."""
+    present = [CENTROID in track.method, EDGE_FIT in track.method,
+               bool(track.flag.size and track.flag.any())]
+    rows = [row for row, p in zip(_LEGEND, present, strict=True) if p]
+    h, w = out.shape[:2]
+    width = max(cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)[0][0] for t, _ in rows)
+    x0 = w - width - 30
+    cv2.rectangle(out, (x0 - 6, 4), (w - 4, 10 + 18 * len(rows)), (0, 0, 0), -1)
+    for i, (text, colour) in enumerate(rows):
+        y = 18 + 18 * i
+        cv2.circle(out, (x0 + 5, y - 4), 5, colour, -1, cv2.LINE_AA)
+        cv2.putText(out, text, (x0 + 16, y), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 1,
+                    cv2.LINE_AA)
 
 
 def _draw_axes(out, track: Track, surface: Surface, zoom: int) -> None:
@@ -163,7 +180,8 @@ class TrackedVideo:
 
 def track_video(path: str | os.PathLike, *, fps: float | None = None,
                 config: TrackerConfig | None = None, ball_diameter: float | None = None,
-                reference: tuple[Sequence[float], Sequence[float], float] | None = None,
+                reference: tuple[Sequence[float], Sequence[float], float]
+                | tuple[Sequence[float], Sequence[float], float, float | None] | None = None,
                 surface: Surface | None = None,
                 background: np.ndarray | str | os.PathLike | None = None) -> TrackedVideo:
     """Read, track, calibrate and rotate one video into the plane frame.
@@ -175,7 +193,8 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         background: as :func:`track_ball`, or an image file of the empty scene.
         ball_diameter: metres; the scale is this over twice ``Track.ball_radius``. Used when
             ``reference`` is not given (default then: the paper's 25.6 mm ball).
-        reference: ``(p1, p2, metres)``, two pixel points a known distance apart.
+        reference: ``(p1, p2, metres)`` or ``(p1, p2, metres, sd_metres)``: two pixel points a
+            known distance apart, and the distance's stated standard deviation.
         surface: the surface line; default :func:`detect_surface` on the background model.
 
     Raises:
@@ -189,11 +208,17 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
     n_found = int(track.found.sum())
     if n_found < 3:
         raise InputFileError(source.path, _not_found_message(track, n_found))
+    if not math.isfinite(track.ball_radius):
+        raise InputFileError(source.path, "the ball is never wholly in view, so its radius "
+                                          "(and the --ball-diameter scale) cannot be measured")
     if reference is not None:
         calibration = Calibration.from_reference(*reference)
     else:
         diameter = PAPER_BALL_DIAMETER if ball_diameter is None else ball_diameter
-        calibration = Calibration.from_ball_diameter(diameter, track.ball_radius)
+        fit = track.radius_fit
+        calibration = Calibration.from_ball_diameter(diameter, track.ball_radius,
+                                                     track.ball_radius_se,
+                                                     fit.sigma if fit is not None else None)
     if surface is None:
         surface = detect_surface(track.background)
         if surface is None:
@@ -221,3 +246,107 @@ def _not_found_message(track: Track, n_found: int) -> str:
             f"at least {track.threshold:.0f} grey levels from the background, noise "
             f"{track.noise:.1f}): check that the ball moves and is wholly in view in some "
             "frames, or set --polarity / --min-contrast / --background")
+
+
+def _floats(a, digits: int = 6) -> list:
+    return [None if not math.isfinite(v) else round(float(v), digits) for v in np.ravel(a)]
+
+
+def _optional(v: float | None, digits: int = 6) -> float | None:
+    return None if v is None or not math.isfinite(v) else round(float(v), digits)
+
+
+def blur_warning(track: Track) -> str | None:
+    """A sentence where the ball is so blurred for its size that its radius is unreliable."""
+    from ._edge import UNRELIABLE_BLUR
+
+    fit = track.radius_fit
+    if fit is None:
+        return ("the ball's radius is the median coverage radius (the edge model could not be "
+                "fitted): biased by blur and uneven light; give --reference")
+    if fit.sigma > UNRELIABLE_BLUR * fit.radius:
+        return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
+                "px: its radius, and the --ball-diameter scale, may be off by several percent "
+                "(the stated uncertainty allows for it); give --reference for a better scale")
+    return None
+
+
+def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) -> dict:
+    """The tracking record of one video (``<name>.track.json``): input, calibration with its
+    uncertainty, surface with its angle's uncertainty, per-frame pixels and quality, a quality
+    summary, the settings and the version. ``calibration.relative_sd`` and
+    ``surface.angle_sd_deg`` are read by :func:`bouncebayes.data.read_track_sidecar`."""
+    from ._measure import METHOD_NAMES
+
+    src, tr, cal, srf = video.source, video.track, video.calibration, video.surface
+    n, h, w = src.frames.shape
+    fit = tr.radius_fit
+    found = tr.found
+    res = tr.residual[found] if tr.residual.size else np.zeros(0)
+    return {
+        "input": str(src.path),
+        "bouncebayes_version": __version__,
+        "frames": n, "width": w, "height": h,
+        "fps": src.fps, "fps_source": src.fps_source,
+        "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
+                    "threshold_grey": round(tr.threshold, 3),
+                    "centre_offset_px": [round(v, 4) for v in tr.centre_offset]},
+        "settings": settings,
+        "ball": {"radius_px": _optional(tr.ball_radius, 4),
+                 "radius_se_px": _optional(tr.ball_radius_se, 4),
+                 "method": "edge model" if fit is not None else "coverage (median)",
+                 "edge_frames": list(fit.frames) if fit is not None else [],
+                 "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
+                 "exposure": _optional(fit.exposure, 3) if fit is not None else None,
+                 "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
+                 "warning": blur_warning(tr)},
+        "ball_radius_px": _optional(tr.ball_radius, 4),
+        "calibration": {"metres_per_pixel": cal.metres_per_px,
+                        "metres_per_px": cal.metres_per_px,
+                        "relative_sd": _optional(cal.relative_sd, 6), "source": cal.source},
+        "surface": {"point_px": list(srf.point), "direction": list(srf.direction),
+                    "angle_deg": srf.angle, "angle_sd_deg": _optional(srf.angle_sd_deg, 6),
+                    "source": srf.source},
+        "quality": {"found": int(found.sum()), "flagged": int(tr.flag.sum()),
+                    "flagged_frames": np.flatnonzero(tr.flag).tolist(),
+                    "not_found_frames": np.flatnonzero(~found).tolist(),
+                    "edge_fit_frames": np.flatnonzero(tr.method == EDGE_FIT).tolist(),
+                    "residual_median_grey": _optional(float(np.nanmedian(res)), 3)
+                    if res.size and np.isfinite(res).any() else None,
+                    "residual_max_grey": _optional(float(np.nanmax(res)), 3)
+                    if res.size and np.isfinite(res).any() else None},
+        "found": int(found.sum()),
+        "not_found_frames": np.flatnonzero(~found).tolist(),
+        "edge_fit_frames": np.flatnonzero(tr.method == EDGE_FIT).tolist(),
+        "per_frame": {"u_px": _floats(tr.centre[:, 0]), "v_px": _floats(tr.centre[:, 1]),
+                      "radius_px": _floats(tr.radius), "method": tr.method.tolist(),
+                      "methods": {str(k): v for k, v in METHOD_NAMES.items()},
+                      "residual_grey": _floats(tr.residual, 3),
+                      "visible": _floats(tr.visible, 4), "flag": tr.flag.astype(int).tolist()},
+        "outputs": {k: str(v) for k, v in outputs.items()},
+    }
+
+
+def write_track_files(video: TrackedVideo, folder: str | os.PathLike, *,
+                      overlay_folder: str | os.PathLike | None = None,
+                      settings: dict | None = None) -> dict[str, Path]:
+    """Write ``<name>.csv`` (the trajectory with its per-frame quality: ``residual``,
+    ``visible``, ``flag``; :func:`bouncebayes.data.write_trajectory`), ``<name>.track.json``
+    beside it (:func:`track_record`: the kinematics read its calibration uncertainty) and
+    ``<name>.overlay.png`` (in ``overlay_folder``, default ``folder``). Returns the paths."""
+    from ..data import write_trajectory
+
+    folder = Path(folder)
+    name = video.source.name
+    files = {"trajectory": folder / f"{name}.csv",
+             "overlay": Path(overlay_folder or folder) / f"{name}.overlay.png",
+             "record": folder / f"{name}.track.json"}
+    tr, traj = video.track, video.trajectory
+    k = np.flatnonzero(tr.found)
+    quality = {"residual": tr.residual[k], "visible": np.clip(tr.visible[k], 0.0, 1.0),
+               "flag": tr.flag[k].astype(float)}
+    write_trajectory(files["trajectory"], traj.t, traj.x, traj.y, quality=quality)
+    overlay_image(video.source.frames, tr, files["overlay"], calibration=video.calibration,
+                  surface=video.surface, title=name)
+    write_json(files["record"], track_record(video, settings or {}, files))
+    return files

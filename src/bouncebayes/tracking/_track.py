@@ -11,7 +11,9 @@ from typing import Literal, get_args
 import numpy as np
 
 from .._validate import check_choice, check_scalar
+from ._edge import RadiusFit
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _edge_fit, _gain, _Measure, _Searcher
+from ._quality import fit_ball_radius, frame_quality
 
 Polarity = Literal["auto", "bright", "dark"]
 POLARITIES: tuple[str, ...] = get_args(Polarity)
@@ -32,6 +34,9 @@ class TrackerConfig:
         min_visible: smallest fraction of the ball's area in the frame for a frame to count.
         max_radius_change: largest relative difference from the median radius for a ball wholly
             in the frame (a larger one means something else was found).
+        edge_model: fit the ball's radius (and so the ``--ball-diameter`` scale) with the
+            edge model of :mod:`bouncebayes.tracking._edge` on a subset of frames; False: the
+            median coverage radius (biased by blur and uneven lighting).
     """
 
     polarity: Polarity = "auto"
@@ -40,6 +45,7 @@ class TrackerConfig:
     min_contrast: float = 12.0
     min_visible: float = 0.25
     max_radius_change: float = 0.25
+    edge_model: bool = True
 
     def __post_init__(self):
         check_choice("polarity", self.polarity, POLARITIES)
@@ -52,6 +58,8 @@ class TrackerConfig:
                      low_open=True)
         check_scalar("min_visible", self.min_visible, low=0.0, high=1.0, low_open=True)
         check_scalar("max_radius_change", self.max_radius_change, low=0.0, low_open=True)
+        if not isinstance(self.edge_model, bool):
+            raise TypeError(f"`edge_model` must be True or False; got {self.edge_model!r}")
 
 
 @dataclass(frozen=True)
@@ -62,6 +70,15 @@ class Track:
     ``method`` is ``CENTROID`` (ball wholly in view) or ``EDGE_FIT`` (cut by the frame edge);
     ``contrast`` is the ball's rim contrast against the background (grey levels); ``noise`` the
     background-difference noise (grey levels, robust standard deviation).
+
+    Per-frame quality: ``residual`` (RMS misfit of a disk of the ball's radius to the frame's
+    coverage, grey levels), ``visible`` (fraction of the ball's disk inside the frame) and
+    ``flag`` (the ball model fits badly: part of the ball hidden or indistinguishable from the
+    background -- an unlit rim against a lit band, a shadow, an occluder); NaN / False where not
+    found. ``radius_fit``: the ball's radius from its edge (:mod:`._edge`) with its standard
+    error, None where no frame could be fitted (then :attr:`ball_radius` is the median
+    coverage radius). ``centre_offset``: the shift (px) applied to every coverage centroid so
+    that they agree with the edge fits (a constant bias of the centroid under side light).
     """
 
     centre: np.ndarray
@@ -72,6 +89,11 @@ class Track:
     polarity: str
     noise: float
     threshold: float
+    residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    visible: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    flag: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    radius_fit: RadiusFit | None = None
+    centre_offset: tuple[float, float] = (0.0, 0.0)
 
     @property
     def found(self) -> np.ndarray:
@@ -79,9 +101,22 @@ class Track:
 
     @property
     def ball_radius(self) -> float:
-        """Median radius (px) over the frames where the ball is wholly in view."""
+        """The ball's radius (px): from its edge (``radius_fit``), else the median coverage
+        radius over the frames where the ball is wholly in view."""
+        if self.radius_fit is not None:
+            return self.radius_fit.radius
         whole = self.method == CENTROID
         return float(np.median(self.radius[whole])) if whole.any() else math.nan
+
+    @property
+    def ball_radius_se(self) -> float:
+        """Standard error of :attr:`ball_radius` (px); NaN where it has none."""
+        return self.radius_fit.radius_se if self.radius_fit is not None else math.nan
+
+    @property
+    def trusted(self) -> np.ndarray:
+        """Found and not flagged."""
+        return self.found & ~self.flag if self.flag.size else self.found
 
 
 def background_model(frames: np.ndarray, n_frames: int = 25) -> np.ndarray:
@@ -140,10 +175,16 @@ def track_ball(frames: np.ndarray, *, config: TrackerConfig = TrackerConfig(),
     state = _Searcher(bg, sign, threshold)
     raw = [state.measure(frame) for frame in frames]
     centre, radius, method, contrast = _finish(frames, state, raw, config)
-    for a in (centre, radius, method, contrast):
+    residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast)
+    fit, offset = fit_ball_radius(frames, state, centre, method, flag, radius) if \
+        config.edge_model else (None, (0.0, 0.0))
+    centre[method == CENTROID] += offset
+    for a in (centre, radius, method, contrast, residual, visible, flag):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
-                 polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold)
+                 polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
+                 residual=residual, visible=visible, flag=flag, radius_fit=fit,
+                 centre_offset=offset)
 
 
 def _check_frames(frames) -> np.ndarray:

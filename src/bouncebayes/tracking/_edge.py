@@ -1,0 +1,313 @@
+"""The ball's radius from its edge: a blurred, shaded sphere fitted to the pixels of its rim.
+
+Each pixel ``i`` near the ball is described by its distance ``rho_i`` from the ball's centre and
+its polar angle ``t_i``; ``u_i = r - rho_i`` is its depth inside the rim. The grey level is the
+background ``B`` where the ball does not cover it and the ball's radiance where it does, both
+blurred::
+
+    I_i = B_i (1 - S_i) + sum_j beta_j f_j(u_i, t_i) + (1 - S_i) (o_0 + o_1 cos t + o_2 sin t)
+
+- ``S = E[1{u + e > 0}] = Phi(u / s)``, ``e ~ N(0, s_i^2)``: the blurred step of the rim, with
+  ``s_i^2 = sigma^2 + 1/12 + (a v)^2 cos^2(t_i - t_v) / 12``: a Gaussian lens blur, the pixel's
+  own width, and the exposure's smear along the ball's direction of motion (``a`` the exposure
+  as a fraction of the frame interval, ``v`` the ball's speed in px per frame);
+- the edge's curvature: blur along the rim moves the half-level inwards by ``s_t^2 / (2 r)``
+  (``s_t`` the blur along the tangent), so the step sits at ``r - s_t^2 / (2 r)``;
+- the ball's radiance ``f_j``: the nine spherical harmonics of the surface normal up to order 2
+  (``1, n_x, n_y, n_z, n_x n_y, n_x^2 - n_y^2, n_x n_z, n_y n_z, n_z^2``), which hold Lambert
+  shading under any distant lighting to ~2 % (Ramamoorthi & Hanrahan 2001; Basri & Jacobs
+  2003), limb darkening and side light included, plus the rim level's harmonics of order 2 to
+  ``RIM_ORDER`` in ``t``; each blurred in closed form (``n_z = sqrt(u (2r - u)) / r``:
+  ``E[sqrt(u + e)_+]`` from the parabolic cylinder function, tabulated once; ``E[(u + e)_+]``
+  and ``E[(u + e)^2_+]`` exact);
+- the local background level on each side (``o``): a shadow, flicker.
+
+So the ball and background levels on each side of the edge are fitted, never assumed. For each
+``(c, r, sigma, a)`` the linear coefficients are solved by least squares (variable
+projection), and those five by ``scipy.optimize.least_squares`` from the best point of a grid
+of radius and blur (the model has local minima where blur trades against the shading near the
+rim). Saturated pixels (a specular highlight) are left out, and pixels the smooth model cannot
+follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass.
+:func:`fit_radius` fits ~9 frames alone, then again with the blur and exposure held at their
+medians (shared by the video: one lens, one exposure), and takes the median radius. Written
+here because no library fits a blurred, shaded disk.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+RIM_ORDER = 4      # harmonics of the rim level in the polar angle
+INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
+MAX_FRAMES = 9     # frames fitted per video
+MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
+
+
+# Systematic error of the edge model's radius, px, added in quadrature to the scatter across
+# frames: SYSTEMATIC_PX, plus a term that grows steeply where the blur is a large part of the
+# radius (there blur trades against the shading near the rim): BLUR_TERM * (sigma / r)^4, with
+# the fitted sigma. Both set from the sweep of benchmarks/tracking_accuracy.py
+# (docs/tracking.md): errors up to ~0.07 px at sigma/r < 0.1, ~0.25 px at 0.14-0.15 and
+# 0.75-1.3 px at 0.18-0.26.
+SYSTEMATIC_PX = 0.06
+BLUR_TERM = 600.0
+UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable
+
+
+def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
+    """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
+    ratio = 0.0 if blur_px is None else blur_px / radius_px
+    return SYSTEMATIC_PX + BLUR_TERM * ratio**4
+
+
+class RadiusFit(NamedTuple):
+    """The ball's radius from the edge model: ``radius`` (px) and its standard error
+    ``radius_se`` (px, from the scatter of single-frame radii with the shared blur and
+    shading held), blur ``sigma`` (px), ``exposure`` (fraction of the frame interval), RMS
+    residual (grey levels), and the frames fitted."""
+
+    radius: float
+    radius_se: float
+    sigma: float
+    exposure: float
+    rms: float
+    frames: tuple[int, ...]
+    centres: np.ndarray    # the edge fits' centres of ``frames`` (px)
+
+
+class _Pixels(NamedTuple):
+    u: np.ndarray          # pixel column
+    v: np.ndarray          # pixel row
+    grey: np.ndarray       # grey level
+    bg: np.ndarray         # background model, scaled to the frame
+    cx: np.ndarray         # the ball's centre in the pixel's frame
+    cy: np.ndarray
+    dir_u: np.ndarray      # direction of motion in the pixel's frame
+    dir_v: np.ndarray
+    speed: np.ndarray      # px per frame
+    frame: np.ndarray      # 0 .. n_frames - 1
+    n_frames: int
+    weight: np.ndarray
+
+
+@functools.lru_cache(maxsize=1)
+def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
+    """``G(z) = E[sqrt(z + Z)_+]``, ``Z ~ N(0, 1)``, on a grid of z: the Gaussian moment of a
+    fractional power, ``E[(z + Z)_+^nu] = Gamma(nu + 1) phi(z) e^(z^2 / 4) D_(-nu-1)(-z)``
+    (``D`` the parabolic cylinder function; from its integral representation, DLMF 12.5.1;
+    checked against direct quadrature to 1e-6)."""
+    from scipy.special import pbdv
+
+    z = np.linspace(-8.0, 30.0, 3801)
+    d, _ = pbdv(-1.5, -z)
+    g = math.gamma(1.5) / math.sqrt(2 * math.pi) * np.exp(-z * z / 4) * d
+    return z, g
+
+
+def _design(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
+    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step."""
+    from scipy.special import ndtr
+
+    r, sigma, exposure = q
+    du, dv = px.u - px.cx, px.v - px.cy
+    rho = np.hypot(du, dv)
+    ct, st = du / np.maximum(rho, 1e-9), dv / np.maximum(rho, 1e-9)
+    cos_v = ct * px.dir_u + st * px.dir_v           # cos(t - t_v)
+    smear2 = (exposure * px.speed) ** 2 / 12.0
+    base = sigma * sigma + 1.0 / 12.0
+    var_r = base + smear2 * cos_v * cos_v
+    var_t = base + smear2 * (1.0 - cos_v * cos_v)
+    s = np.sqrt(var_r)
+    u = r - var_t / (2.0 * r) - rho
+    z = u / s
+    step = ndtr(z)
+    dens = np.exp(-0.5 * z * z) / math.sqrt(2 * math.pi)
+    ramp = u * step + s * dens                      # E[(u + e) 1{u + e > 0}]
+    square = (u * u + s * s) * step + u * s * dens  # E[(u + e)^2 1{.}]
+    zt, gt = _sqrt_table()
+    root = np.sqrt(s) * np.interp(z, zt, gt, right=np.nan)
+    root = np.where(np.isnan(root), np.sqrt(np.maximum(u, 0.0)), root)
+    # blurred n_z = sqrt(u (2r - u)) / r, and q = rho / r, q^2 (n_x = q cos t, ...)
+    nz = root * math.sqrt(2.0 / r) * np.sqrt(np.clip(1.0 - u / (2.0 * r), 0.0, 1.0))
+    qq = step - ramp / r
+    q2 = step - 2.0 * ramp / r + square / (r * r)
+    nzq = nz * np.clip(1.0 - u / r, 0.0, 1.0)
+    c2, s2 = ct * ct - st * st, 2.0 * ct * st
+    cols = [step, qq * ct, qq * st, nz, q2 * s2, q2 * c2, nzq * ct, nzq * st, step - q2,
+            step * c2, step * s2]
+    cm, sm = c2, s2
+    for _ in range(3, RIM_ORDER + 1):
+        cm, sm = cm * ct - sm * st, sm * ct + cm * st
+        cols += [step * cm, step * sm]
+    shared = np.stack(cols, axis=1)
+    out = 1.0 - step
+    local = np.zeros((rho.size, 3 * px.n_frames))
+    rows = np.arange(rho.size)
+    for j, a in enumerate((out, out * ct, out * st)):
+        local[rows, 3 * px.frame + j] = a
+    return np.hstack([shared, local]), step
+
+
+def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
+    """Weighted residuals at ``q = (cx, cy, r, sigma, exposure)`` (one frame) or ``(r, sigma,
+    exposure)`` (the centres held), the linear coefficients solved."""
+    if q.size == 5:
+        n = px.u.size
+        px = px._replace(cx=np.full(n, q[0]), cy=np.full(n, q[1]))
+        q = q[2:]
+    a, step = _design(q, px)
+    a = a * px.weight[:, None]
+    y = (px.grey - px.bg * (1.0 - step)) * px.weight
+    # normal equations with a small ridge: ~10x faster than an SVD, and the columns are
+    # O(1) functions of the pixels (a near-degenerate column gets a coefficient ~0)
+    ata = a.T @ a
+    ata[np.diag_indices_from(ata)] += 1e-9 * (np.trace(ata) / len(ata) + 1.0)
+    try:
+        beta = np.linalg.solve(ata, a.T @ y)
+    except np.linalg.LinAlgError:
+        beta, *_ = np.linalg.lstsq(a, y, rcond=None)
+    return y - a @ beta
+
+
+def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels | None:
+    """Pixels of one frame with ``r0 - inner <= rho <= r0 + outer`` from ``c``, saturated ones
+    and their neighbours left out; None if they leave the frame."""
+    h, w = img.shape
+    reach = r0 + outer
+    u0, v0 = int(math.floor(c[0] - reach)), int(math.floor(c[1] - reach))
+    u1, v1 = int(math.ceil(c[0] + reach)) + 1, int(math.ceil(c[1] + reach)) + 1
+    if u0 < 0 or v0 < 0 or u1 > w or v1 > h:
+        return None
+    sub = img[v0:v1, u0:u1].astype(np.float64)
+    vv, uu = np.mgrid[v0:v1, u0:u1].astype(np.float64)
+    rho = np.hypot(uu - c[0], vv - c[1])
+    near = (rho >= r0 - inner) & (rho <= reach)
+    sat = sub >= 254.5
+    if sat.any():
+        grown = sat.copy()
+        grown[1:] |= sat[:-1]
+        grown[:-1] |= sat[1:]
+        grown[:, 1:] |= sat[:, :-1]
+        grown[:, :-1] |= sat[:, 1:]
+        near &= ~grown
+    idx = np.flatnonzero(near)
+    if idx.size > MAX_PIXELS:  # a large ball: every k-th pixel (raster order) holds the edge
+        idx = idx[::-(-idx.size // MAX_PIXELS)]
+    n = idx.size
+    uu, vv, sub = uu.ravel()[idx], vv.ravel()[idx], sub.ravel()[idx]
+    bgw = bg[v0:v1, u0:u1].ravel()[idx].astype(np.float64)
+    speed = math.hypot(*vel)
+    du, dv = (vel[0] / speed, vel[1] / speed) if speed > 0 else (1.0, 0.0)
+    full = functools.partial(np.full, n)
+    return _Pixels(uu, vv, sub, bgw, full(c[0]), full(c[1]), full(du), full(dv), full(speed),
+                   np.zeros(n, np.intp), 1, np.ones(n))
+
+
+class EdgeFit(NamedTuple):
+    """One frame's fit: centre and radius (px), blur sigma (px), exposure, RMS residual."""
+
+    cx: float
+    cy: float
+    r: float
+    sigma: float
+    exposure: float
+    rms: float
+
+
+def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
+             blur: tuple[float, float] | None = None) -> EdgeFit | None:
+    """Fit the edge model to one frame around ``centre`` (px; ``bg`` the background model
+    scaled to the frame, ``velocity`` px per frame) from a first radius ``r0``; with ``blur =
+    (sigma, exposure)`` those are held. None if the pixels leave the frame or the fit fails."""
+    from scipy.optimize import least_squares
+
+    speed = math.hypot(*velocity)
+    q = np.array([centre[0], centre[1], r0, 0.6, 0.0]) if blur else \
+        _start(img, bg, centre, velocity, r0)
+    if q is None:
+        return None
+    if blur:
+        q[3:] = blur
+    fixed = np.zeros(5, bool) if blur is None else np.array([0, 0, 0, 1, 1], bool)
+    lo = np.array([q[0] - 2, q[1] - 2, 0.75 * q[2], 0.05, 0.0])
+    hi = np.array([q[0] + 2, q[1] + 2, 1.3 * q[2], 3.0, 1.0 if speed > 0.2 else 1e-3])
+    fit = px = None
+    for _ in range(2):  # twice: the pixels are chosen again from the first fit
+        b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
+        px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
+        if px is None or px.u.size < 40:
+            return None
+        q = np.clip(q, lo + 1e-9, hi - 1e-9)
+
+        def res(x, px=px, q=q):
+            full = q.copy()
+            full[~fixed] = x
+            return _residual(full, px)
+
+        try:
+            fit = least_squares(res, q[~fixed], bounds=(lo[~fixed], hi[~fixed]),
+                                x_scale=0.05, diff_step=1e-4, xtol=1e-4, ftol=1e-4,
+                                max_nfev=12)
+            scale = 1.4826 * float(np.median(np.abs(fit.fun))) + 1e-9
+            px = px._replace(weight=(np.abs(fit.fun) <= 4.0 * scale).astype(np.float64))
+            fit = least_squares(res, fit.x, bounds=(lo[~fixed], hi[~fixed]), args=(px,),
+                                x_scale=0.05, diff_step=1e-4, xtol=1e-4, ftol=1e-4,
+                                max_nfev=12)
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        q[~fixed] = fit.x
+    assert fit is not None and px is not None
+    rms = math.sqrt(float(fit.fun @ fit.fun) / max(float(px.weight.sum()), 1.0))
+    cx, cy, r, sigma, exposure = (float(v) for v in q)
+    return EdgeFit(cx, cy, r, sigma, exposure, rms)
+
+
+def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
+    """The best starting ``(cx, cy, r, sigma, exposure)`` on a grid of radius, blur and
+    exposure (centre held): the edge model has local minima where a blur trades against the
+    shading near the rim."""
+    px = _pixels(img, bg, centre, velocity, 1.25 * r0, max(0.6 * r0, 4.0), 7.0)
+    if px is None or px.u.size < 40:
+        return None
+    best, q_best = math.inf, None
+    for sigma in (0.2, 0.7, 1.3):
+        for r in r0 * np.linspace(0.8, 1.25, 8):
+            q = np.array([centre[0], centre[1], r, sigma, 0.0])
+            cost = float(np.sum(_residual(q, px) ** 2))
+            if cost < best:
+                best, q_best = cost, q
+    return q_best
+
+
+def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
+               centres: np.ndarray, velocities: np.ndarray, r0: float) -> RadiusFit | None:
+    """The ball's radius from the frames given (each with the ball wholly in view near
+    ``centres``, px; ``backgrounds``: the background model scaled to each frame;
+    ``velocities``: px per frame): every frame fitted alone, then again with the blur and
+    exposure held at their medians; the median radius and its standard error. None if fewer
+    than 3 frames could be fitted."""
+    args = list(zip(frames, backgrounds, centres, velocities, strict=True))
+    first = [fit_edge(*a, r0) for a in args]
+    ok = [f for f in first if f is not None]
+    if len(ok) < 3:
+        return None
+    blur = (float(np.median([f.sigma for f in ok])), float(np.median([f.exposure for f in ok])))
+    r1 = float(np.median([f.r for f in ok]))
+    second = [None if f is None else fit_edge(img, bg, (f.cx, f.cy), v, r1, blur=blur)
+              for (img, bg, _, v), f in zip(args, first, strict=True)]
+    fits = [f for f in second if f is not None]
+    if len(fits) < 3:
+        return None
+    radii = np.array([f.r for f in fits])
+    med = float(np.median(radii))
+    # standard error of a median: 1.2533 sd / sqrt(n), the sd from the MAD (robust)
+    se = 1.2533 * 1.4826 * float(np.median(np.abs(radii - med))) / math.sqrt(len(radii))
+    used = [i for i, f in enumerate(second) if f is not None]
+    return RadiusFit(med, se, blur[0], blur[1], float(np.median([f.rms for f in fits])),
+                     tuple(used), np.array([[f.cx, f.cy] for f in fits]))
+

@@ -1,0 +1,130 @@
+"""Per-frame quality of the tracked ball, and the ball's radius from its edge on chosen frames.
+
+:func:`frame_quality` compares each found frame's coverage (``alpha``, as the centroid uses it)
+with a disk of the ball's coverage radius at the found centre, the coverage first scaled to
+match the disk best (an error of the rim contrast scales all of ``alpha`` and is no misfit):
+the RMS difference, in grey levels, is the frame's ``residual``. A frame whose residual stands
+out from the video's (more than ``FLAG_FACTOR`` times the median, and more than ``FLAG_FLOOR``
+of the contrast) is flagged: part of the ball is missing from its coverage (an unlit rim
+against a lit band, a contact shadow, an occluder), so its centroid is pulled off the centre.
+A ball cut by the frame edge is flagged at ``EDGE_FACTOR`` times the median, or where less than
+``EDGE_VISIBLE`` of it is in view. Costs ~20 us per frame.
+
+:func:`fit_ball_radius` picks up to ``MAX_FRAMES`` trusted frames spread over the video, with
+the ball wholly in view, and runs the edge model of :mod:`._edge` on them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._edge import MAX_FRAMES, UNRELIABLE_BLUR, RadiusFit, fit_radius
+from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
+
+FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
+FLAG_FLOOR = 0.06   # ... and above this fraction of the ball's contrast: flagged
+EDGE_FACTOR = 2.0   # for a ball cut by the frame edge: above EDGE_FACTOR x the median ...
+EDGE_VISIBLE = 0.9  # ... or less than this fraction of it in view (errors of 0.3-1.5 px for a
+#                     10 px ball on the independent renderer, tests/test_tracking.py)
+RAMP = 1.5          # px, width of the disk's edge ramp in the comparison
+
+
+def _unit_disk(n: int = 24) -> np.ndarray:
+    g = (np.arange(n) + 0.5) / n * 2 - 1
+    x, y = np.meshgrid(g, g)
+    inside = x * x + y * y <= 1
+    return np.column_stack([x[inside], y[inside]])
+
+
+_DISK = _unit_disk()
+
+
+def visible_fraction(centre: np.ndarray, r: float, shape: tuple[int, int]) -> np.ndarray:
+    """Fraction of each disk (centres ``(n, 2)``, radius ``r`` px) inside the frame; NaN where
+    the centre is NaN."""
+    h, w = shape
+    pts = centre[:, None, :] + r * _DISK[None, :, :]
+    inside = ((pts[..., 0] >= -0.5) & (pts[..., 0] <= w - 0.5)
+              & (pts[..., 1] >= -0.5) & (pts[..., 1] <= h - 0.5))
+    out = inside.mean(axis=1)
+    return np.where(np.isnan(centre[:, 0]), np.nan, out)
+
+
+def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: np.ndarray,
+                  method: np.ndarray, contrast: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``residual`` (grey levels), ``visible`` (0-1) and ``flag`` of every frame."""
+    n = len(frames)
+    residual = np.full(n, np.nan)
+    flag = np.zeros(n, bool)
+    whole = method == CENTROID
+    if not whole.any():
+        return residual, np.full(n, np.nan), flag
+    r = float(np.median(radius[whole]))
+    visible = visible_fraction(centre, r, frames.shape[1:])
+    rel = np.full(n, np.nan)
+    h, w = frames.shape[1:]
+    half = r + 3.0
+    for k in np.flatnonzero(method != NOT_FOUND).tolist():
+        cx, cy = centre[k]
+        u0, v0 = max(int(cx - half), 0), max(int(cy - half), 0)
+        u1, v1 = min(int(cx + half) + 2, w), min(int(cy + half) + 2, h)
+        if u1 <= u0 or v1 <= v0:
+            continue
+        img = frames[k, v0:v1, u0:u1].astype(np.float32)
+        bg = s.gains[k] * s.bg[v0:v1, u0:u1]
+        c = max(float(contrast[k]), s.threshold)
+        alpha = np.clip(s.sign * (img - bg) / c, 0.0, 1.0)
+        rho = np.hypot(np.arange(u0, u1) - cx, (np.arange(v0, v1) - cy)[:, None])
+        model = np.clip((r - rho) / RAMP + 0.5, 0.0, 1.0)
+        near = rho <= half
+        a, m = alpha[near], model[near]
+        # the coverage scaled to best match the disk: an error of the rim contrast (which
+        # scales all of alpha) is not a misfit; a part of the ball missing is
+        aa = float(a @ a)
+        g = float(a @ m) / aa if aa > 0 else 1.0
+        rel[k] = math.sqrt(float(np.mean((g * a - m) ** 2)))
+        residual[k] = c * rel[k]
+    base = float(np.nanmedian(rel[whole]))
+    with np.errstate(invalid="ignore"):
+        flag = (method != NOT_FOUND) & (rel > FLAG_FACTOR * base) & (rel > FLAG_FLOOR)
+        # a ball cut by the frame edge is fitted with the video's radius on fewer pixels:
+        # held to a tighter limit
+        flag |= (method == EDGE_FIT) & ((rel > EDGE_FACTOR * base) | (visible < EDGE_VISIBLE))
+    return residual, visible, flag
+
+
+def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method: np.ndarray,
+                    flag: np.ndarray, radius: np.ndarray
+                    ) -> tuple[RadiusFit | None, tuple[float, float]]:
+    """The edge model on up to ``MAX_FRAMES`` trusted frames spread over the video (ball wholly
+    in view with a margin, both neighbours found for its velocity); and the median offset of
+    the edge fits' centres from the coverage centroids (applied to every centroid)."""
+    whole = method == CENTROID
+    if whole.sum() < 3:
+        return None, (0.0, 0.0)
+    r0 = float(np.median(radius[whole]))
+    h, w = frames.shape[1:]
+    m = 1.25 * r0 + 8.0
+    ok = whole & ~flag
+    ok &= (centre[:, 0] >= m) & (centre[:, 0] <= w - 1 - m)
+    ok &= (centre[:, 1] >= m) & (centre[:, 1] <= h - 1 - m)
+    ok[0] = ok[-1] = False
+    ok[1:-1] &= whole[:-2] & whole[2:]
+    cand = np.flatnonzero(ok)
+    if len(cand) < 3:
+        return None, (0.0, 0.0)
+    pick = cand[np.unique(np.linspace(0, len(cand) - 1, min(MAX_FRAMES, len(cand))).round()
+                          .astype(int))]
+    vel = (centre[pick + 1] - centre[pick - 1]) / 2.0
+    fit = fit_radius([frames[k] for k in pick], [s.gains[k] * s.bg for k in pick],
+                     centre[pick], vel, r0)
+    if fit is None:
+        return None, (0.0, 0.0)
+    fit = fit._replace(frames=tuple(int(pick[i]) for i in fit.frames))
+    if fit.sigma > UNRELIABLE_BLUR * fit.radius:  # the edge fits' centres are not better
+        return fit, (0.0, 0.0)
+    shift = np.median(fit.centres - centre[list(fit.frames)], axis=0)
+    return fit, (float(shift[0]), float(shift[1]))

@@ -1,0 +1,276 @@
+"""An independent renderer of high-speed bounce videos, for the tracker's accuracy checks.
+
+Written apart from ``tests/video_helpers.py`` and from ``bouncebayes.tracking`` (no code shared):
+the ball is a sphere shaded with physically based terms, the optics and sensor are simulated
+explicitly, so that the tracker's edge model is tested on images it was not built from.
+
+- **Ball**: a sphere of radius ``R`` (pixels) seen orthographically. Surface normal at image
+  offset ``q = (p - c) / R``: ``n = (q_u, -q_v, sqrt(1 - |q|^2))`` (camera frame: x right, y up,
+  z to the camera). Radiance = ``albedo * (ambient + lambert * limb)`` + ``specular``, with
+  ``lambert = max(0, n . l)`` (light direction ``l``), a linear limb-darkening law
+  ``limb = 1 - u (1 - n_z)``, and a Blinn-Phong lobe ``k_s max(0, n . h)^shininess``,
+  ``h = (l + z) / |l + z|``.
+- **Anti-aliasing**: every pixel is integrated on an ``S x S`` sub-grid (default 6), each
+  sub-sample's coverage a linear ramp one sub-pixel wide (exact area to well below 0.01 px).
+- **Exposure**: the frame integrates the scene over ``exposure / fps`` seconds centred on
+  ``k / fps``: ``n_sub`` ball positions along the true parabolic path are averaged (motion blur).
+- **Lens**: a Gaussian point-spread function of ``sigma_px`` pixels, applied to the
+  super-sampled image before pixel integration.
+- **Background**: a continuous textured wall (sum of random-phase plane waves), the surface
+  line with a darker plane below it; optional lit band above the surface, a static occluder
+  (a vertical post in front of the ball) and a contact shadow under the ball.
+- **Sensor**: gain to grey levels, shot noise (variance ``shot * grey``) plus read noise,
+  clipping at 0 and 255 (a saturated highlight), 8-bit rounding; then optionally a lossy codec
+  (``"MJPG"`` in .avi or ``"mp4v"`` in .mp4 through OpenCV) and decoding back.
+
+The truth: ``Shot.true_centres()`` (mid-exposure centres, px), ``Shot.radius_px`` and the
+plane-frame bounce velocities of :class:`Throw`.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+G = 9.81
+
+
+@dataclass(frozen=True, kw_only=True)
+class Throw:
+    """A bounce in the plane frame (x along the surface in the direction of travel, y the
+    outward normal; metres, seconds). ``angle_in`` is from the normal, degrees."""
+
+    speed_in: float = 2.0
+    angle_in: float = 35.0
+    e_n: float = 0.65                 # -vy_out / vy_in
+    e_t: float = 0.8                  # vx_out / vx_in
+    t_contact: float = 0.040
+    x_contact: float = 0.10
+
+    def v_in(self) -> np.ndarray:
+        a = math.radians(self.angle_in)
+        return np.array([self.speed_in * math.sin(a), -self.speed_in * math.cos(a)])
+
+    def v_out(self) -> np.ndarray:
+        vx, vy = self.v_in()
+        return np.array([self.e_t * vx, -self.e_n * vy])
+
+    def rebound_speed(self) -> float:
+        return float(np.hypot(*self.v_out()))
+
+    def rebound_angle(self) -> float:
+        vx, vy = self.v_out()
+        return math.degrees(math.atan2(vx, vy))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Shot:
+    """Camera, optics, lighting and scene of one rendered video."""
+
+    width: int = 160
+    height: int = 96
+    fps: float = 1000.0
+    n_frames: int = 60
+    diameter_m: float = 0.0256
+    radius_px: float = 10.0
+    slope_deg: float = 8.0            # surface inclination in the image (down to the right)
+    surface_v: float = 60.0           # image row of the surface line at u = 0
+    # optics and exposure
+    sigma_px: float = 0.0
+    exposure: float = 0.0             # fraction of the frame interval
+    supersample: int = 6
+    # lighting (camera frame: x right, y up, z to the camera)
+    light: tuple[float, float, float] = (-0.4, 0.5, 0.77)
+    albedo: float = 0.85
+    ambient: float = 0.4
+    limb_u: float = 0.3
+    specular: float = 0.0             # Blinn-Phong strength (0: matte)
+    shininess: float = 40.0
+    gain: float = 230.0               # grey level of radiance 1
+    # background (grey levels)
+    wall: float = 50.0
+    texture: float = 10.0
+    plane: float = 30.0
+    band: float = 0.0                 # extra grey of a lit band just above the surface
+    occluder_u: float | None = None   # column of a static post in front of the ball
+    shadow: float = 0.0               # depth (0-1) of a soft contact shadow under the ball
+    # sensor and codec
+    read_noise: float = 1.5
+    shot: float = 0.05
+    codec: str | None = None          # "MJPG" or "mp4v"
+    seed: int = 0
+    throw: Throw = field(default_factory=Throw)
+
+    @property
+    def metres_per_px(self) -> float:
+        return self.diameter_m / (2.0 * self.radius_px)
+
+    def axes(self) -> tuple[np.ndarray, np.ndarray]:
+        b = math.radians(self.slope_deg)
+        e = np.array([math.cos(b), math.sin(b)])
+        return e, np.array([e[1], -e[0]])
+
+    def surface_points(self) -> tuple[float, float, float, float]:
+        e, _ = self.axes()
+        return (0.0, self.surface_v, 100.0 * e[0], self.surface_v + 100.0 * e[1])
+
+    def plane_xy(self, t: np.ndarray) -> np.ndarray:
+        """Ball centre in the plane frame (m) at times ``t``."""
+        th = self.throw
+        b = math.radians(self.slope_deg)
+        g = np.array([G * math.sin(b), -G * math.cos(b)])
+        dt = np.asarray(t, dtype=float)[..., None] - th.t_contact
+        v = np.where(dt < 0, th.v_in(), th.v_out())
+        return np.array([th.x_contact, self.diameter_m / 2]) + v * dt + 0.5 * g * dt * dt
+
+    def pixels(self, xy: np.ndarray) -> np.ndarray:
+        e, n = self.axes()
+        uv = (xy[..., :1] * e + xy[..., 1:] * n) / self.metres_per_px
+        return uv + np.array([0.0, self.surface_v])
+
+    def true_centres(self) -> np.ndarray:
+        return self.pixels(self.plane_xy(np.arange(self.n_frames) / self.fps))
+
+
+def _wall(shot: Shot, u: np.ndarray, v: np.ndarray, rng_seed: int) -> np.ndarray:
+    """Continuous background radiance (grey levels) at image points ``(u, v)``."""
+    rng = np.random.default_rng(rng_seed)
+    k = rng.uniform(0.05, 0.6, 12) * rng.choice([-1, 1], 12)
+    ang = rng.uniform(0, np.pi, 12)
+    ph = rng.uniform(0, 2 * np.pi, 12)
+    tex = sum(np.sin(ki * (np.cos(a) * u + np.sin(a) * v) + p) for ki, a, p in zip(k, ang, ph, strict=True))
+    e, n = shot.axes()
+    height = u * n[0] + (v - shot.surface_v) * n[1]   # + above the surface
+    wall = shot.wall + shot.texture * tex / math.sqrt(6.0)
+    wall = wall + shot.band * np.exp(-0.5 * ((height - 4.0) / 3.0) ** 2)
+    below = np.clip(0.5 - height, 0.0, 1.0)
+    img = wall * (1 - below) + (shot.plane + 0.3 * shot.texture * np.sin(0.7 * u)) * below
+    return img
+
+
+def _ball(shot: Shot, du: np.ndarray, dv: np.ndarray, sub: float) -> tuple[np.ndarray, ...]:
+    """Coverage and radiance (grey levels) of the ball at offsets ``(du, dv)`` from its centre."""
+    r = shot.radius_px
+    d = np.hypot(du, dv)
+    cover = np.clip((r - d) / sub + 0.5, 0.0, 1.0)
+    q2 = np.minimum((du * du + dv * dv) / (r * r), 1.0)
+    nz = np.sqrt(1.0 - q2)
+    nx, ny = du / r, -dv / r
+    lx, ly, lz = np.asarray(shot.light) / np.linalg.norm(shot.light)
+    lam = np.maximum(0.0, nx * lx + ny * ly + nz * lz)
+    limb = 1.0 - shot.limb_u * (1.0 - nz)
+    hx, hy, hz = lx, ly, lz + 1.0
+    hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
+    spec = shot.specular * np.maximum(0.0, (nx * hx + ny * hy + nz * hz) / hn) ** shot.shininess
+    radiance = shot.albedo * (shot.ambient + lam * limb) + spec
+    return cover, shot.gain * radiance
+
+
+def render(shot: Shot) -> np.ndarray:
+    """All frames ``(n_frames, height, width)`` uint8, after the codec if one is set."""
+    s = shot.supersample
+    h, w = shot.height, shot.width
+    sub = 1.0 / s
+    offs = (np.arange(s) + 0.5) / s - 0.5
+    uu = (np.arange(w)[:, None] + offs[None, :]).ravel()
+    vv = (np.arange(h)[:, None] + offs[None, :]).ravel()
+    U, V = np.meshgrid(uu, vv)
+    wall_hi = _wall(shot, U, V, shot.seed)
+    if shot.occluder_u is not None:
+        post = np.clip(3.0 - np.abs(U - shot.occluder_u), 0.0, 1.0)
+        wall_hi = wall_hi * (1 - post) + 30.0 * post
+    else:
+        post = None
+    sig = shot.sigma_px * s
+    blur = (lambda a: cv2.GaussianBlur(a, (0, 0), sig, borderType=cv2.BORDER_REFLECT)) \
+        if sig > 0 else (lambda a: a)
+
+    def down(a: np.ndarray) -> np.ndarray:
+        return a.reshape(a.shape[0] // s, s, a.shape[1] // s, s).mean(axis=(1, 3))
+
+    n_sub = 1 if shot.exposure == 0 else 16
+    offsets = ((np.arange(n_sub) + 0.5) / n_sub - 0.5) * shot.exposure / shot.fps
+    rng = np.random.default_rng(shot.seed + 7)
+    margin = int(math.ceil(4 * shot.sigma_px)) + 3
+    frames = np.empty((shot.n_frames, h, w), np.uint8)
+    base = down(blur(wall_hi.astype(np.float32)))
+    for k in range(shot.n_frames):
+        cs = shot.pixels(shot.plane_xy(k / shot.fps + offsets))
+        img = base.copy()
+        # the window reaches two margins beyond the ball: the blur's halo (one margin) is
+        # pasted, the outer margin only feeds the blur
+        lo = np.floor(cs.min(axis=0) - shot.radius_px).astype(int) - 2 * margin
+        hi = np.ceil(cs.max(axis=0) + shot.radius_px).astype(int) + 2 * margin + 1
+        u0, v0 = max(lo[0], 0), max(lo[1], 0)
+        u1, v1 = min(hi[0], w), min(hi[1], h)
+        if u1 > u0 and v1 > v0:
+            sl = (slice(v0 * s, v1 * s), slice(u0 * s, u1 * s))
+            Uw, Vw, bw = U[sl], V[sl], wall_hi[sl]
+            acc = np.zeros(Uw.shape)
+            for cu, cv in cs:
+                if shot.shadow > 0:
+                    bw_k = bw * _shadow(shot, Uw, Vw, cu, cv)
+                else:
+                    bw_k = bw
+                cover, rad = _ball(shot, Uw - cu, Vw - cv, sub)
+                comp = bw_k * (1 - cover) + rad * cover
+                if post is not None:
+                    pw = post[sl]
+                    comp = comp * (1 - pw) + 30.0 * pw
+                acc += comp
+            win = down(blur((acc / len(cs)).astype(np.float32)))
+            # the window's blur is exact away from its border: paste the inner part only
+            iu0 = 0 if u0 == 0 else margin
+            iv0 = 0 if v0 == 0 else margin
+            iu1 = win.shape[1] - (0 if u1 == w else margin)
+            iv1 = win.shape[0] - (0 if v1 == h else margin)
+            img[v0 + iv0:v0 + iv1, u0 + iu0:u0 + iu1] = win[iv0:iv1, iu0:iu1]
+        noisy = img + rng.standard_normal(img.shape) * np.sqrt(
+            shot.read_noise**2 + shot.shot * np.maximum(img, 0.0))
+        frames[k] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+    return _codec(frames, shot) if shot.codec else frames
+
+
+def _shadow(shot: Shot, U, V, cu, cv) -> np.ndarray:
+    """Soft darkening on the surface below the ball, deeper as the ball comes closer."""
+    e, n = shot.axes()
+    height = (cu * n[0] + (cv - shot.surface_v) * n[1])  # ball centre above the surface (px)
+    foot_u, foot_v = cu - height * n[0], cv - height * n[1]
+    gap = max(height - shot.radius_px, 0.0)
+    depth = shot.shadow * math.exp(-gap / (2 * shot.radius_px))
+    d2 = ((U - foot_u) / (1.3 * shot.radius_px)) ** 2 + ((V - foot_v) / (0.5 * shot.radius_px)) ** 2
+    return 1.0 - depth * np.exp(-d2)
+
+
+def _codec(frames: np.ndarray, shot: Shot) -> np.ndarray:
+    suffix = ".avi" if shot.codec == "MJPG" else ".mp4"
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"v{suffix}"
+        write(frames, path, shot.fps, shot.codec or "MJPG")
+        cap = cv2.VideoCapture(str(path))
+        out = []
+        while True:
+            ok, img = cap.read()
+            if not ok:
+                break
+            out.append(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY))
+        cap.release()
+    return np.stack(out)
+
+
+def write(frames: np.ndarray, path: Path, fps: float, fourcc: str) -> Path:
+    """Frames to a video file (grey, through OpenCV's writer)."""
+    h, w = frames.shape[1:]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), fps, (w, h),
+                             isColor=False)
+    if not writer.isOpened():
+        raise OSError(f"cannot write {path} with {fourcc}")
+    for f in frames:
+        writer.write(f)
+    writer.release()
+    return path
