@@ -7,8 +7,8 @@ population (``scipy.stats.truncnorm``, independent of the package's own sampler)
 incidence around the paper's (3 m/s at 60 deg, 0.05 m/s and 1 deg bounce-to-bounce; measured
 exactly), simulate its rebound (``bouncebayes.simulate``), add Gaussian noise of the demo's sizes
 (0.02 m/s, 0.5 deg) and state them as standard errors; infer with ``likelihood="population"``
-and the mh sampler; record the rank of each true hyper-parameter among ``RANK_DRAWS`` evenly
-spaced posterior draws (thinned so that they are nearly independent) and whether the 90 %
+and the ensemble sampler (the tool's default for it; ``--sampler mh`` for the paper's); record
+the rank of each true hyper-parameter among ``RANK_DRAWS`` evenly spaced posterior draws (thinned so that they are nearly independent) and whether the 90 %
 interval holds it. Calibrated: ranks uniform (Pearson chi-square over ``BINS`` bins, p > 0.01),
 coverage inside the central 99 % binomial band of Binomial(campaigns, 0.9). Reported for all
 campaigns, for the first 200 (the study's minimum), and for those whose chains agree (R-hat at
@@ -49,7 +49,9 @@ HYPER = ("mu_mean", "mu_sd", "eta_mean", "eta_sd")
 BOX = {"mu": (0.0, 0.2), "eta": (0.0, 5.0)}
 N_TRIALS = 55
 NOISE = {"rebound_speed": 0.02, "rebound_angle": 0.5}  # m/s, deg
-DRAWS, BURN_IN, THIN, CHAINS = 4000, 2000, 4, 4
+DRAWS, BURN_IN, THIN, CHAINS = 4000, 2000, 4, 4  #: the mh runs (--sampler mh)
+#: the ensemble runs (--sampler ensemble, the tool's default for this likelihood): its defaults
+ENSEMBLE = {"draws": 15_000, "walkers": 32, "burn_in": 500, "thin": 5}
 RANK_DRAWS = 99  #: ranks 0..99
 BINS = 20
 SEED = 20131306
@@ -76,11 +78,11 @@ def truth(rng: np.random.Generator) -> dict[str, float]:
     return out
 
 
-def campaign(seed: int) -> dict:
+def campaign(seed: int, sampler: str = "ensemble") -> dict:
     """One campaign: truth, synthetic table, population posterior, ranks and coverage."""
     from bouncebayes import simulate
     from bouncebayes.data import make_trials
-    from bouncebayes.inference import MHConfig, infer
+    from bouncebayes.inference import EnsembleConfig, MHConfig, infer
 
     rng = np.random.default_rng(seed)
     exp = experiment()
@@ -102,8 +104,10 @@ def campaign(seed: int) -> dict:
         rebound_angle=out.rebound_angle + NOISE["rebound_angle"] * rng.standard_normal(N_TRIALS),
         incidence_speed=speed, incidence_angle=angle,
         se={k: np.full(N_TRIALS, v) for k, v in NOISE.items()}, source="population-sbc")
-    r = infer(exp, trials, likelihood="population", sampler="mh", seed=int(rng.integers(2**31)),
-              config=MHConfig(draws=DRAWS, chains=CHAINS, burn_in=BURN_IN, thin=THIN))
+    config = (MHConfig(draws=DRAWS, chains=CHAINS, burn_in=BURN_IN, thin=THIN)
+              if sampler == "mh" else EnsembleConfig(**ENSEMBLE))
+    r = infer(exp, trials, likelihood="population", sampler=sampler,
+              seed=int(rng.integers(2**31)), config=config)
     row: dict = {"truth": hyper, "n_failed_bounces": int(out.n_failed),
                  "share_rolling_data": float(np.mean(out.rolling)),
                  "grid_points": r.population.record["grid_points"],
@@ -119,20 +123,25 @@ def campaign(seed: int) -> dict:
     return row
 
 
-def tasks(n: int, seed: int) -> list[Task]:
+def tasks(n: int, seed: int, sampler: str = "ensemble") -> list[Task]:
     spec = {"n_trials": N_TRIALS, "box": {k: list(v) for k, v in BOX.items()},
-            "noise": NOISE, "draws": DRAWS, "burn_in": BURN_IN, "thin": THIN, "chains": CHAINS,
-            "rank_draws": RANK_DRAWS}
-    return [Task(f"campaign-{i:05d}", campaign, (task_seed(seed, i),), spec | {"index": i},
-                 STORE / f"campaign-{i:05d}.json") for i in range(n)]
+            "noise": NOISE, "sampler": sampler, "rank_draws": RANK_DRAWS} | _settings(sampler)
+    store = STORE / sampler
+    return [Task(f"campaign-{i:05d}", campaign, (task_seed(seed, i), sampler),
+                 spec | {"index": i}, store / f"campaign-{i:05d}.json") for i in range(n)]
 
 
-def summary(rows: list[dict], seconds: float, seed: int) -> dict:
+def _settings(sampler: str) -> dict:
+    return ({"draws": DRAWS, "burn_in": BURN_IN, "thin": THIN, "chains": CHAINS}
+            if sampler == "mh" else dict(ENSEMBLE))
+
+
+def summary(rows: list[dict], seconds: float, seed: int, sampler: str = "ensemble") -> dict:
     n = len(rows)
     lo, hi = stats.binom.interval(0.99, n, 0.9)
     out: dict = {
         "study": "simulation-based calibration (Talts et al. 2018) of the population likelihood "
-                 "with the mh sampler",
+                 f"with the {sampler} sampler",
         "settings": {"campaigns": n, "n_trials": N_TRIALS, "box": {k: list(v) for k, v in
                                                                    BOX.items()},
                      "hyper_priors": "means uniform on the box, spreads uniform on [0, half "
@@ -140,8 +149,7 @@ def summary(rows: list[dict], seconds: float, seed: int) -> dict:
                      "population": "normal truncated to the box",
                      "incidence": "3 m/s at 60 deg, 0.05 m/s and 1 deg spread, measured "
                                   "exactly", "noise": NOISE,
-                     "sampler": {"mh": {"draws": DRAWS, "chains": CHAINS, "burn_in": BURN_IN,
-                                        "thin": THIN}},
+                     "sampler": {sampler: _settings(sampler)},
                      "rank_draws": RANK_DRAWS, "bins": BINS, "seed": seed},
         "campaigns_done": n, "coverage_bounds_99": [lo / n, hi / n],
         "campaigns_with_rolling_bounces": int(sum(r["share_rolling_data"] > 0 for r in rows)),
@@ -189,10 +197,12 @@ def main(argv=None) -> dict | None:
     ap.add_argument("--seed", type=int, default=SEED)
     ap.add_argument("--part", default="1/1", help="K/N: run every N-th campaign from K-1")
     ap.add_argument("--out", type=Path, default=RESULTS)
+    ap.add_argument("--sampler", choices=("ensemble", "mh"), default="ensemble",
+                    help="ensemble: the tool's default for the population likelihood")
     args = ap.parse_args(argv)
     k, n_parts = (int(x) for x in args.part.split("/"))
-    STORE.mkdir(parents=True, exist_ok=True)
-    every = tasks(args.campaigns, args.seed)
+    (STORE / args.sampler).mkdir(parents=True, exist_ok=True)
+    every = tasks(args.campaigns, args.seed, args.sampler)
     mine = every[k - 1::n_parts]
     outcome = run_tasks(mine, scheduler=SERIAL, progress=False, desc="population-sbc")
     done = [json.loads(t.record.read_text())["result"] for t in every
@@ -201,7 +211,7 @@ def main(argv=None) -> dict | None:
         print(f"part {args.part}: {len(mine)} campaigns ({len(outcome.failed)} failed); "
               f"{len(done)} of {len(every)} stored")
         return None
-    result = summary(done, outcome.seconds, args.seed)
+    result = summary(done, outcome.seconds, args.seed, args.sampler)
     write_json(args.out, result)
     for name, p in result["parameters"].items():
         print(f"{name:<9} chi2 p = {p['chi2_p_value']:.3f}, coverage90 = {p['coverage90']:.3f} "

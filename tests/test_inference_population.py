@@ -278,7 +278,8 @@ def test_experiment_file_and_cli_choose_the_population(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["likelihood"] == "population"
     assert summary["population"]["family"] == "lognormal"
-    assert summary["sampler_settings"]["burn_in"] >= 2000  # the population's minimum
+    # no --sampler: the population likelihood's default, the ensemble sampler
+    assert summary["sampler"] == "ensemble"
     # bounces without spread: the population mean agrees with the gaussian likelihood's value
     e = experiment()
     gauss = infer(e, load_trials(table, e), likelihood="gaussian", sampler="grid", seed=1)

@@ -155,7 +155,7 @@ def carry_over(old: Path, stage: Path, log: Callable[[str], None]) -> list[str]:
 
 
 def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
-        likelihood: str | None = None, sampler: str = "mh", seed: int = 0, config=None,
+        likelihood: str | None = None, sampler: str | None = None, seed: int = 0, config=None,
         noise: str | None = None, discrepancy: str | None = None, progress: bool = False,
         log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
@@ -233,7 +233,10 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     times["data"] = time.perf_counter() - start
 
     likelihood = settings["likelihood"] or experiment.inference["likelihood"]
-    start = _stage(2, f"inference ({likelihood} likelihood, {settings['sampler']} sampler)", log)
+    from .inference import default_sampler, sampler_of
+
+    sampler = settings["sampler"] or sampler_of(settings["config"]) or default_sampler(likelihood)
+    start = _stage(2, f"inference ({likelihood} likelihood, {sampler} sampler)", log)
     result = infer(experiment, trials, **settings)
     write_outputs(result, stage)
     times["inference"] = time.perf_counter() - start

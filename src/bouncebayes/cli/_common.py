@@ -215,9 +215,10 @@ def add_sampler_arguments(p: argparse.ArgumentParser) -> None:
                         "bounce its own parameters from an inferred population (<p>_mean, "
                         "<p>_sd) plus measurement noise (default: the experiment's "
                         "[inference] likelihood, else gaussian)")
-    g.add_argument("--sampler", choices=SAMPLERS, default="mh",
+    g.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="mh: the paper's Metropolis-Hastings; ensemble: emcee; grid: exact "
-                        "quadrature (up to 3 parameters)")
+                        "quadrature (up to 3 parameters) (default: mh; ensemble for the "
+                        "population likelihood, whose mean and spread mh explores slowly)")
     g.add_argument("--seed", type=integer(0), default=0,
                    help="random seed (recorded in the outputs)")
     g.add_argument("--noise", choices=("auto", "given", "inferred"), default=None,
@@ -280,13 +281,27 @@ def inference_options(args: argparse.Namespace) -> dict:
     return out | ({} if budget is None else {"memory_budget": budget})
 
 
-def sampler_config(args: argparse.Namespace):
+def sampler_config(args: argparse.Namespace, experiment=None):
     """The chosen sampler's configuration from the flags (library defaults for the others); a
-    flag that does not apply to the chosen sampler is refused, naming the samplers it does."""
+    flag that does not apply to the chosen sampler is refused, naming the samplers it does.
+
+    Without ``--sampler``, ``args.sampler`` is set to the likelihood's default sampler
+    (:func:`bouncebayes.inference.default_sampler`), the likelihood being ``--likelihood`` or
+    the experiment's (``experiment``: a loaded experiment or the path of its file)."""
     from dataclasses import fields
 
-    from ..inference import SAMPLER_CONFIGS
+    from ..inference import SAMPLER_CONFIGS, default_sampler
     from ..inference import sampler_config as make_config
+
+    if args.sampler is None:
+        likelihood = getattr(args, "likelihood", None)
+        if likelihood is None and experiment is not None:
+            if not hasattr(experiment, "inference"):
+                from ..data import load_experiment
+
+                experiment = load_experiment(experiment)
+            likelihood = experiment.inference["likelihood"]
+        args.sampler = default_sampler(likelihood)
 
     given = {"draws": args.draws, "chains": args.chains, "burn_in": args.burn_in,
              "thin": args.thin, "walkers": args.walkers, "points": args.grid_points}

@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     check_out_folder("--out", args.out)
     experiment = load_experiment(args.experiment)
     trials = load_trials(args.trials, experiment)
-    config = sampler_config(args)
+    config = sampler_config(args, experiment)
     result = infer(experiment, trials, sampler=args.sampler, seed=args.seed, config=config,
                    progress=show_progress(args), **inference_options(args))
     stamp = record(args, {"experiment": args.experiment, "trials": args.trials},

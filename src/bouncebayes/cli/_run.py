@@ -88,8 +88,9 @@ def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | N
     check_out_folder("--out", args.out)
     if getattr(args, "fps", None) is not None:
         check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
+    config = sampler_config(args, experiment)
     outcome = run(experiment, data, args.out, sampler=args.sampler, seed=args.seed,
-                  config=sampler_config(args), progress=show_progress(args), log=log, truth=truth,
+                  config=config, progress=show_progress(args), log=log, truth=truth,
                   fps=getattr(args, "fps", None), argv=args.argv,
                   figure_formats=args.figure_formats, **inference_options(args))
     print(flag_names(outcome.table, args.flags))

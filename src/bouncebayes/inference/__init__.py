@@ -16,7 +16,9 @@ from ._config import SAMPLERS as SAMPLERS
 from ._config import EnsembleConfig as EnsembleConfig
 from ._config import GridConfig as GridConfig
 from ._config import MHConfig as MHConfig
+from ._config import default_sampler as default_sampler
 from ._config import sampler_config as sampler_config
+from ._config import sampler_of as sampler_of
 from ._draws import Draws as Draws
 from ._ensemble import EnsembleInfo as EnsembleInfo
 from ._ensemble import EnsembleRun as EnsembleRun
@@ -65,7 +67,7 @@ __all__ = [
     "GridDensity", "GridRun", "InferenceResult", "LogPosterior", "MHConfig", "MHInfo", "MHRun",
     "MHState", "MemoryBudgetError", "POPULATION_FAMILIES", "population_density",
     "population_hyper_names", "ParameterSummary", "Replicates",
-    "ensemble_init", "ensemble_step", "format_table", "infer", "inference_data",
+    "default_sampler", "ensemble_init", "ensemble_step", "format_table", "infer", "inference_data",
     "load_inference", "marginal_modes", "plan_memory", "mh_init", "mh_step", "noise_priors",
-    "sampler_config", "write_outputs",
+    "sampler_config", "sampler_of", "write_outputs",
 ]

@@ -16,7 +16,7 @@ from ..data import Experiment, Trials
 from ._adequacy import Adequacy, assess
 from ._checks import data_warnings
 from ._config import (GRID_POINTS, SAMPLERS, AnyConfig, MHConfig, config_for,
-                      sampler_config, sampler_of)
+                      default_sampler, sampler_config, sampler_of)
 from ._draws import Draws
 from ._ensemble import EnsembleRun, sample_ensemble
 from ._grid import GridRun, check_grid_memory, grid_bytes, sample_grid
@@ -134,7 +134,8 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = No
             default: the experiment's (``"gaussian"`` unless it says otherwise).
         sampler: ``"mh"`` (the paper's Metropolis–Hastings), ``"ensemble"`` (emcee) or
             ``"grid"`` (exact quadrature, up to 3 parameters); default: the sampler of
-            ``config``, else ``"mh"``.
+            ``config``, else ``"mh"`` (``"ensemble"`` for the population likelihood,
+            :func:`default_sampler`).
         seed: the only source of randomness; same seed and inputs, identical draws.
         config: the sampler's settings, :class:`MHConfig`, :class:`EnsembleConfig` or
             :class:`GridConfig` (default: the sampler's defaults; the paper's for mh).
@@ -160,7 +161,8 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = No
     likelihood = settings["likelihood"] if likelihood is None else likelihood
     noise = settings["noise"] if noise is None else noise
     discrepancy = settings["discrepancy"] if discrepancy is None else discrepancy
-    sampler = sampler if sampler is not None else (sampler_of(config) or "mh")
+    sampler = sampler if sampler is not None else (sampler_of(config)
+                                                    or default_sampler(likelihood))
     _check_arguments(likelihood, sampler, noise, discrepancy, seed)
     budget = check_memory_budget(memory_budget)
     config = config_for(sampler, config)

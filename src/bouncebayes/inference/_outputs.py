@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import platform
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -65,6 +66,14 @@ def provenance(result: Any) -> dict[str, Any]:
 
 def inference_data(result: Any):
     """The result as an ArviZ DataTree (see the module docstring for its groups)."""
+    with warnings.catch_warnings():
+        # ArviZ guesses that (chain, draw) were swapped when an ensemble run keeps fewer draws
+        # per walker than it has walkers; the axes here are named, and right
+        warnings.filterwarnings("ignore", "Found chain dimension to be longer", UserWarning)
+        return _inference_data(result)
+
+
+def _inference_data(result: Any):
     import arviz_base
     import xarray as xr
 
