@@ -62,10 +62,13 @@ TABLE_NODES = (24, 8)  # damping x gravity
 NX, NG = TABLE_NODES  # the kernels are written for these sizes (eight gravity terms)
 # The compression table: damping split into COMPRESSION_PIECES equal intervals, each with its
 # own Chebyshev nodes in damping x gravity x sigma (sigma = sqrt(t / t_peak) along the
-# compression before the force peak): a bounce evaluates one piece, 4x fewer terms than one
-# global table of the same accuracy.
-COMPRESSION_PIECES = 4
-COMPRESSION_NODES = (10, 8, 20)
+# compression before the force peak): a bounce evaluates one piece. 16 pieces of 6 x 5 x 20
+# terms (1,200 a piece) reproduce tight ODE solutions as well as 4 pieces of 10 x 8 x 20
+# (3,200) did: impulse and force within ~2e-8 of the ODE's dense output at random points of
+# the Kelvin–Voigt, Hunt–Crossley and linear boxes (the floor of that dense output; 8 x 5 x 16
+# or 6 x 4 x 20 terms are 3-10x worse), tests/test_model_fast.py.
+COMPRESSION_PIECES = 16
+COMPRESSION_NODES = (6, 5, 20)
 # Domain: KV zeta <= 0.6 (beyond ~0.7 the initial force eta V becomes the peak: a kink),
 # HC chi <= 2 (restitution ~0.3; the factor 1 - 1.5 chi |D'| stays positive, so the ball
 # separates at zero overlap without a kink); gravity number <= 0.09 for KV (slow, grazing
@@ -330,6 +333,18 @@ def gravity_rows(c, gamma, gamma_max, start, stop, rows):
 
 
 @njit(cache=True, inline="always")
+def gravity_rows5(c, gamma, gamma_max, start, stop, rows):
+    """:func:`gravity_rows` for a table of five gravity terms (the compression table)."""
+    v = 2.0 * gamma / gamma_max - 1.0
+    t2 = 2.0 * v * v - 1.0
+    t3 = 2.0 * v * t2 - v
+    t4 = 2.0 * t2 * t2 - 1.0
+    c0, c1, c2, c3, c4 = c[0], c[1], c[2], c[3], c[4]
+    for k in range(start, stop):
+        rows[k] = c0[k] + c1[k] * v + c2[k] * t2 + c3[k] * t3 + c4[k] * t4
+
+
+@njit(cache=True, inline="always")
 def x_values(rows, n, q0, q1, u, tx, vals):
     """vals[q] = sum_i rows[q n + i] T_i(u) for q in [q0, q1): the damping axis (basis once,
     then dot products with four partial sums)."""
@@ -457,12 +472,16 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
     ft_peak = mu * fn_peak
     if not slides:
         s0 = u0 + r * w0
+        slip_rate = mu * (1.0 + m * r * r / inertia)
+        if s0 != 0.0:  # the impulse up to the force peak (tx still holds the damping basis)
+            gravity_rows(main, gamma, gamma_max, T_PPK * NX, N_TABLE * NX, rows)
+            vals[T_PPK] = _dot(rows, T_PPK * NX, tx, NX)
         if s0 == 0.0:
             ft_peak = 0.0
-        else:  # the slip stops: before the force peak? (decided in the second pass)
+        elif abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
             e = early[:, n_early]
-            e[E_INDEX], e[E_X], e[E_GAMMA], e[E_S0] = i, x, gamma, s0
-            e[E_MU], e[E_VN], e[E_TPK], e[E_DAMPING] = mu, vn, vals[T_TPK], damping
+            e[E_INDEX], e[E_X], e[E_GAMMA], e[E_TARGET] = i, x, gamma, abs(s0) / (slip_rate * vn)
+            e[E_MU], e[E_TPK], e[E_DAMPING] = mu, vals[T_TPK], damping
             e[E_FSCALE] = f_scale
             n_early += 1
     vn_out = vals[T_E] * vn
@@ -480,52 +499,45 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
     return (FB_NONE if phase != 0.0 else -1), n_early  # -1: solved, rolling
 
 
-# What the second pass of :func:`bounce_range` needs of a ball whose slip stops.
-# (the last five: the state of its root search in :func:`_early_forces`)
-(E_INDEX, E_X, E_GAMMA, E_S0, E_MU, E_VN, E_TPK, E_DAMPING, E_FSCALE, E_TARGET, E_SIGMA, E_LO,
- E_HI, E_ACTIVE) = range(14)
-N_EARLY = 14
+# What the second pass of :func:`bounce_range` needs of a ball whose slip stops before the
+# force peak (the last five: the state of its root search in :func:`_early_forces`).
+(E_INDEX, E_X, E_GAMMA, E_MU, E_TPK, E_DAMPING, E_FSCALE, E_PIECE, E_TARGET, E_SIGMA, E_LO,
+ E_HI, E_ACTIVE) = range(13)
+N_EARLY = 13
 BLOCK = 256  # elements per pass pair of bounce_range: its scratch stays in the L1 cache
 
 
 @njit(cache=True, inline="always")
-def _early_friction(ball, main, comp, x_max, gamma_max, kv, early, n_early, sel, rows, tx,
-                    vals, work, ab, out):
-    """Peak friction of the balls whose slip stops (``early`` of :func:`_bounce_one`): where
-    it stops before the force peak, mu times the normal force when the impulse reaches the
-    slip's need (:func:`_early_forces`, piece by piece of the compression table); after the
-    peak, mu times the peak normal force (already written)."""
-    r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
-    slip_rate_per_mu = 1.0 + m * r * r / inertia
+def _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx, work, ab, out):
+    """Peak friction of the balls whose slip stops before the force peak (``early`` of
+    :func:`_bounce_one`): mu times the normal force when the impulse reaches the slip's need
+    (:func:`_early_forces`), the balls taken piece by piece of the compression table (a
+    counting sort into ``sel``), so that one piece's coefficients serve them in turn."""
     n_pieces = comp.shape[0]
     width = x_max / n_pieces
+    counts[:] = 0
+    for j in range(n_early):
+        piece = min(int(early[E_X, j] / width), n_pieces - 1)
+        early[E_PIECE, j] = piece
+        counts[piece + 1] += 1
     for piece in range(n_pieces):
-        n_sel = 0
-        for j in range(n_early):
-            e = early[:, j]
-            x = e[E_X]
-            if min(int(x / width), n_pieces - 1) != piece:
-                continue
-            s0, mu, vn = e[E_S0], e[E_MU], e[E_VN]
-            slip_rate = mu * slip_rate_per_mu
-            gravity_rows(main, e[E_GAMMA], gamma_max, T_PPK * NX, N_TABLE * NX, rows)
-            x_values(rows, NX, T_PPK, N_TABLE, 2.0 * x / x_max - 1.0, tx, vals)
-            if abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
-                e[E_TARGET] = abs(s0) / (slip_rate * vn)
-                sel[n_sel] = j
-                n_sel += 1
-        _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab)
-        for k in range(n_sel):
-            e = early[:, sel[k]]
-            out[O_FT, int(e[E_INDEX])] = (e[E_MU] * max(e[E_SIGMA], initial_force(
-                kv, e[E_DAMPING])) * e[E_FSCALE])
+        counts[piece + 1] += counts[piece]
+    for j in range(n_early):
+        piece = int(early[E_PIECE, j])
+        sel[counts[piece]] = j
+        counts[piece] += 1
+    _early_forces(comp, sel, n_early, early, x_max, gamma_max, work, tx, ab)
+    for k in range(n_early):
+        e = early[:, k]
+        out[O_FT, int(e[E_INDEX])] = (e[E_MU] * max(e[E_SIGMA], initial_force(
+            kv, e[E_DAMPING])) * e[E_FSCALE])
 
 
 @njit(cache=True, inline="always")
-def _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
+def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
     """Normal force (scaled) when the impulse reaches ``E_TARGET`` during compression, for the
-    elements ``sel[:n_sel]`` of ``early`` (all in the compression table's ``piece``), into
-    their ``E_SIGMA`` row.
+    elements ``sel[:n_sel]`` of ``early`` (each in its piece ``E_PIECE`` of the compression
+    table), into their ``E_SIGMA`` row.
 
     The compression table gives the impulse Pi and the force Phi as Chebyshev series in
     sigma = sqrt(t / t_peak); Pi(sigma) = target is solved by Newton's method with
@@ -540,7 +552,8 @@ def _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab
     width = x_max / n_pieces
     for k in range(n_sel):
         e = early[:, sel[k]]
-        gravity_rows(comp[piece], e[E_GAMMA], gamma_max, 0, comp.shape[2], work)
+        piece = int(e[E_PIECE])
+        gravity_rows5(comp[piece], e[E_GAMMA], gamma_max, 0, comp.shape[2], work)
         x_values(work, nxc, 0, ns2, 2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0,
                  tx, ab[k])
         e[E_SIGMA] = _first_guess(ab[k], ns, e[E_TARGET], e[E_TPK])
@@ -597,6 +610,7 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
     ab = np.empty((BLOCK, 2 * COMPRESSION_NODES[2]))
     early = np.empty((N_EARLY, BLOCK))
     sel = np.empty(BLOCK, dtype=np.int64)
+    counts = np.empty(comp.shape[0] + 1, dtype=np.int64)
     limit = HERTZ_OVERLAP_LIMIT * ball[B_R]
     shared_gravity = values[I_INCL].shape[0] == 1 and values[I_G].shape[0] == 1
     gx, gy = gravity_parts(values, 0)
@@ -625,8 +639,8 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
             rolling[i] = reason < 0
             flags[0, i] = out[O_DMAX, i] <= limit
             flags[1, i] = True
-        _early_friction(ball, main, comp, x_max, gamma_max, kv, early, n_early, sel, rows, tx,
-                        vals, work, ab, out)
+        _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx, work, ab,
+                        out)
     return n_invalid, n_fallback
 
 
