@@ -60,12 +60,23 @@ T_E, T_TC, T_FN, T_DMAX, T_DSEP, T_TPK, T_PPK = range(7)
 N_TABLE = 7
 TABLE_NODES = (24, 8)  # damping x gravity
 NX, NG = TABLE_NODES  # the kernels are written for these sizes (eight gravity terms)
-# The compression table: damping split into COMPRESSION_PIECES equal intervals, each with its
-# own Chebyshev nodes in damping x gravity x sigma (sigma = sqrt(t / t_peak) along the
-# compression before the force peak): a bounce evaluates one piece, 4x fewer terms than one
-# global table of the same accuracy.
-COMPRESSION_PIECES = 4
-COMPRESSION_NODES = (10, 8, 20)
+# The compression table: the scaled normal force Phi along the compression before the force
+# peak, as a function of sigma = sqrt(t / t_peak) (the ODE solution is a power series in
+# sqrt(t) there, so that Phi is smooth in sigma), the damping variable and the gravity number;
+# the damping axis split into COMPRESSION_PIECES equal intervals, each with its own Chebyshev
+# nodes. The impulse is not tabulated: it is the integral of the force, taken exactly on the
+# Chebyshev series (:func:`_impulse_series`). 16 pieces of 6 x 5 x 20 terms (600 a bounce)
+# give the force within ~2e-8 of tight ODE solutions at random points of the Kelvin–Voigt,
+# Hunt–Crossley and linear boxes, as 4 pieces of 10 x 8 x 20 terms did (the floor of the ODE's
+# dense output the table is built from; 8 x 5 x 16 or 6 x 4 x 20 terms are 3-10x worse); the
+# peak friction of an early-stopping ball then agrees with the ODE path to ~1e-8
+# (tests/test_model_fast.py). A table of the force against the impulse, which would need no
+# root search, converges far more slowly: under Kelvin–Voigt the impulse grows like zeta t
+# until t ~ zeta^(2/3), then like t^(5/2), so that any single power of the impulse fraction
+# leaves a kink whose place moves with the damping (32 terms in (Pi / Pi_peak)^(1/5) leave
+# 6e-7 at zeta = 1e-5; docs/speed.md).
+COMPRESSION_PIECES = 16
+COMPRESSION_NODES = (6, 5, 20)
 # Domain: KV zeta <= 0.6 (beyond ~0.7 the initial force eta V becomes the peak: a kink),
 # HC chi <= 2 (restitution ~0.3; the factor 1 - 1.5 chi |D'| stays positive, so the ball
 # separates at zero overlap without a kink); gravity number <= 0.09 for KV (slow, grazing
@@ -96,7 +107,7 @@ class NormalTable:
 
     law: str
     coef: np.ndarray  # (N_TABLE, n_damping, n_gravity)
-    compression: np.ndarray  # (piece, 2 n_sigma, n_damping, n_gravity): impulse Pi, force Phi
+    compression: np.ndarray  # (piece, n_sigma, n_damping, n_gravity): the force Phi
     x_max: float  # table variable x: zeta^(1/3) (Kelvin–Voigt) or chi (Hunt–Crossley)
     gamma_max: float
     power: float
@@ -114,7 +125,8 @@ class NormalTable:
 
     @property
     def compression_gravity_first(self) -> np.ndarray:
-        """The compression table as the kernels read it: (piece, NG, 2 n_sigma * n_damping)."""
+        """The compression table as the kernels read it: (piece, n_gravity,
+        n_sigma * n_damping)."""
         return np.ascontiguousarray(np.stack([_gravity_first(c) for c in self.compression]))
 
 
@@ -163,7 +175,7 @@ def _load_cached(law: str) -> tuple[np.ndarray, np.ndarray] | None:
             coef, compression = f["coef"], f["compression"]
     except (OSError, KeyError, ValueError):
         return None
-    pieces = (COMPRESSION_PIECES, 2 * COMPRESSION_NODES[2]) + COMPRESSION_NODES[:2]
+    pieces = (COMPRESSION_PIECES, COMPRESSION_NODES[2]) + COMPRESSION_NODES[:2]
     if coef.shape != (N_TABLE,) + TABLE_NODES or compression.shape != pieces:
         return None
     return coef, compression
@@ -227,8 +239,8 @@ def _solve_unit(law: str, damping: np.ndarray, gamma: np.ndarray) -> np.ndarray:
 
 
 def _compression_table(law: str, x_max: float, gamma_max: float, power: float) -> np.ndarray:
-    """Chebyshev coefficients, per damping piece, of the impulse Pi and force Phi at
-    sigma = sqrt(t / t_peak)."""
+    """Chebyshev coefficients, per damping piece, of the force Phi at sigma = sqrt(t / t_peak)
+    (the impulse follows from it: :func:`_impulse_series`)."""
     nx, ng, ns = COMPRESSION_NODES
     cx, cg, cs = _cheb_nodes(nx), _cheb_nodes(ng), _cheb_nodes(ns)
     edges = np.linspace(0.0, x_max, COMPRESSION_PIECES + 1)
@@ -240,17 +252,16 @@ def _compression_table(law: str, x_max: float, gamma_max: float, power: float) -
                            indexing="ij")
         damping, gamma = x.ravel() ** power, g.ravel()
         inputs = unit_inputs(law, damping, gamma, TABLE_SOLVER.max_contact_time_factor)
-        out = np.empty((2, damping.size, ns))
+        out = np.empty((1, damping.size, ns))
         for i in range(damping.size):
             res, status, segs, params = solve_with_segments(inputs, i, TABLE_SOLVER)
             if status != K.ST_OK:  # pragma: no cover - the domain is chosen to avoid this
                 raise RuntimeError(f"compression table for {law} has unsolved nodes")
             times = sigma**2 * res[K.R_T_FN_PEAK]
             hist = sample(res, segs, params, times)
-            out[0, i, order] = hist[:, K.S_V] + 1.0 + gamma[i] * times  # impulse / (m V)
-            out[1, i, order] = hist[:, K.H_FN]
-        coef = _interpolate(out.reshape(2, nx, ng, ns), (cx, cg, cs))
-        pieces.append(coef.transpose(0, 3, 1, 2).reshape(2 * ns, nx, ng))
+            out[0, i, order] = hist[:, K.H_FN]
+        coef = _interpolate(out.reshape(1, nx, ng, ns), (cx, cg, cs))
+        pieces.append(coef.transpose(0, 3, 1, 2).reshape(ns, nx, ng))
     return np.ascontiguousarray(np.stack(pieces))
 
 
@@ -330,6 +341,18 @@ def gravity_rows(c, gamma, gamma_max, start, stop, rows):
 
 
 @njit(cache=True, inline="always")
+def gravity_rows5(c, gamma, gamma_max, start, stop, rows):
+    """:func:`gravity_rows` for a table of five gravity terms (the compression table)."""
+    v = 2.0 * gamma / gamma_max - 1.0
+    t2 = 2.0 * v * v - 1.0
+    t3 = 2.0 * v * t2 - v
+    t4 = 2.0 * t2 * t2 - 1.0
+    c0, c1, c2, c3, c4 = c[0], c[1], c[2], c[3], c[4]
+    for k in range(start, stop):
+        rows[k] = c0[k] + c1[k] * v + c2[k] * t2 + c3[k] * t3 + c4[k] * t4
+
+
+@njit(cache=True, inline="always")
 def x_values(rows, n, q0, q1, u, tx, vals):
     """vals[q] = sum_i rows[q n + i] T_i(u) for q in [q0, q1): the damping axis (basis once,
     then dot products with four partial sums)."""
@@ -386,25 +409,32 @@ def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
 
 
 @njit(cache=True, inline="always")
-def _first_guess(ab, ns, target, t_peak):
+def _first_guess(ab, ns, target, scale):
     """Root of the two-term model Pi ~ alpha sigma^2 + beta sigma^5 of the compression: alpha
-    from Pi''(0) = 2 t_peak Phi(0) (the initial force of Kelvin–Voigt), beta from Pi(1); both
-    sums are free (T_k(1) = 1, T_k(-1) = (-1)^k). Newton on the model from
-    (target / Pi(1))^(1/5), which lies at or beyond its root, descends onto it."""
+    from Pi''(0) = 4 scale Phi(0) (:func:`_impulse_series`; the initial force of Kelvin–Voigt),
+    beta from Pi(1); both
+    sums are free (T_k(1) = 1, T_k(-1) = (-1)^k). Newton on the model from the smaller of the
+    roots of its two terms alone (each at or beyond the model's root, the smaller within a
+    factor 2^(1/2) of it), so that the iterates descend onto it in a few steps; from
+    (target / Pi(1))^(1/5) alone, where the first term dominates, each step took a fifth off
+    sigma."""
     pi_end = 0.0
     phi_start = 0.0
     sign = 1.0
-    for i in range(ns):
+    for i in range(ns + 2):
         pi_end += ab[i]
-        phi_start += sign * ab[ns + i]
+    for i in range(ns):
+        phi_start += sign * ab[ns + 2 + i]
         sign = -sign
     if not pi_end > 0.0:
         return 1.0
     sigma = min(1.0, (target / pi_end) ** 0.2)
-    alpha = max(t_peak * phi_start, 0.0)
+    alpha = max(2.0 * scale * phi_start, 0.0)
     beta = pi_end - alpha
     if beta <= 0.0:
         return sigma
+    if alpha > 0.0:
+        sigma = min(sigma, math.sqrt(target / alpha))
     for _ in range(12):
         s2 = sigma * sigma
         s4 = s2 * s2
@@ -418,18 +448,57 @@ def _first_guess(ab, ns, target, t_peak):
 
 @njit(cache=True, inline="always")
 def _impulse_force(ab, ns, u, tx):
-    """(Pi, Phi) of the compression series at u = 2 sigma - 1 (one basis for both)."""
-    cheb_basis(u, tx, ns)
+    """(Pi, Phi) of the compression series at u = 2 sigma - 1 (one basis for both; ``ab``:
+    the ns + 2 coefficients of Pi, then the ns of Phi, ns even)."""
+    cheb_basis(u, tx, ns + 2)
     a0 = a1 = b0 = b1 = 0.0
-    for i in range(0, ns - 1, 2):
+    for i in range(0, ns, 2):
         a0 += ab[i] * tx[i]
         a1 += ab[i + 1] * tx[i + 1]
-        b0 += ab[ns + i] * tx[i]
-        b1 += ab[ns + i + 1] * tx[i + 1]
-    if ns % 2:
-        a0 += ab[ns - 1] * tx[ns - 1]
-        b0 += ab[2 * ns - 1] * tx[ns - 1]
+        b0 += ab[ns + 2 + i] * tx[i]
+        b1 += ab[ns + 3 + i] * tx[i + 1]
+    a0 += ab[ns] * tx[ns]
+    a1 += ab[ns + 1] * tx[ns + 1]
     return a0 + a1, b0 + b1
+
+
+@njit(cache=True, inline="always")
+def _impulse_series(ab, ns, ppk, c):
+    """The impulse's Chebyshev series from the force's, in place: with dt = 2 t_peak sigma
+    dsigma and u = 2 sigma - 1, Pi(u) is proportional to I(u), the integral from -1 of
+    (u + 1) Phi (the product by u + 1 and the integral are exact recurrences on the
+    coefficients: u T_k = (T_{k+1} + T_{|k-1|}) / 2, the integral of T_k is
+    T_{k+1} / (2(k+1)) - T_{k-1} / (2(k-1))). Scaled so that Pi(1) is the main table's impulse
+    at the force peak ``ppk`` (accurate to ~1e-10, where t_peak is ~3e-8). ``ab``: the force's
+    ns coefficients at ab[ns + 2:], the impulse's ns + 2 written to ab[:ns + 2]; ``c``:
+    scratch of ns + 1. Returns the scale (Pi = scale I, dPi/dsigma = 4 scale sigma Phi)."""
+    b = ab[ns + 2:]
+    for j in range(ns + 1):  # c = (u + 1) Phi
+        cj = b[j] if j < ns else 0.0
+        if j == 1:
+            cj += b[0]
+        elif j >= 2:
+            cj += 0.5 * b[j - 1]
+        if j + 1 < ns:
+            cj += 0.5 * b[j + 1]
+        c[j] = cj
+    n = ns + 1
+    ab[1] = c[0] - 0.5 * c[2]
+    for k in range(2, n + 1):
+        ab[k] = ((c[k - 1] if k - 1 < n else 0.0) - (c[k + 1] if k + 1 < n else 0.0)) / (2 * k)
+    total = 0.0
+    sign = -1.0
+    start = 0.0
+    for k in range(1, n + 1):
+        total += ab[k]
+        start += sign * ab[k]
+        sign = -sign
+    ab[0] = -start  # I(-1) = 0
+    total += ab[0]
+    scale = ppk / total
+    for k in range(n + 1):
+        ab[k] *= scale
+    return scale
 
 
 @njit(cache=True, inline="always")
@@ -457,12 +526,16 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
     ft_peak = mu * fn_peak
     if not slides:
         s0 = u0 + r * w0
+        slip_rate = mu * (1.0 + m * r * r / inertia)
+        if s0 != 0.0:  # the impulse up to the force peak (tx still holds the damping basis)
+            gravity_rows(main, gamma, gamma_max, T_PPK * NX, N_TABLE * NX, rows)
+            vals[T_PPK] = _dot(rows, T_PPK * NX, tx, NX)
         if s0 == 0.0:
             ft_peak = 0.0
-        else:  # the slip stops: before the force peak? (decided in the second pass)
+        elif abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
             e = early[:, n_early]
-            e[E_INDEX], e[E_X], e[E_GAMMA], e[E_S0] = i, x, gamma, s0
-            e[E_MU], e[E_VN], e[E_TPK], e[E_DAMPING] = mu, vn, vals[T_TPK], damping
+            e[E_INDEX], e[E_X], e[E_GAMMA], e[E_TARGET] = i, x, gamma, abs(s0) / (slip_rate * vn)
+            e[E_MU], e[E_PPK], e[E_DAMPING] = mu, vals[T_PPK], damping
             e[E_FSCALE] = f_scale
             n_early += 1
     vn_out = vals[T_E] * vn
@@ -480,70 +553,65 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
     return (FB_NONE if phase != 0.0 else -1), n_early  # -1: solved, rolling
 
 
-# What the second pass of :func:`bounce_range` needs of a ball whose slip stops.
-# (the last five: the state of its root search in :func:`_early_forces`)
-(E_INDEX, E_X, E_GAMMA, E_S0, E_MU, E_VN, E_TPK, E_DAMPING, E_FSCALE, E_TARGET, E_SIGMA, E_LO,
- E_HI, E_ACTIVE) = range(14)
+# What the second pass of :func:`bounce_range` needs of a ball whose slip stops before the
+# force peak (the last five: the state of its root search in :func:`_early_forces`).
+(E_INDEX, E_X, E_GAMMA, E_MU, E_PPK, E_DAMPING, E_FSCALE, E_PIECE, E_TARGET, E_SIGMA, E_LO,
+ E_HI, E_ACTIVE, E_SCALE) = range(14)
 N_EARLY = 14
 BLOCK = 256  # elements per pass pair of bounce_range: its scratch stays in the L1 cache
 
 
 @njit(cache=True, inline="always")
-def _early_friction(ball, main, comp, x_max, gamma_max, kv, early, n_early, sel, rows, tx,
-                    vals, work, ab, out):
-    """Peak friction of the balls whose slip stops (``early`` of :func:`_bounce_one`): where
-    it stops before the force peak, mu times the normal force when the impulse reaches the
-    slip's need (:func:`_early_forces`, piece by piece of the compression table); after the
-    peak, mu times the peak normal force (already written)."""
-    r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
-    slip_rate_per_mu = 1.0 + m * r * r / inertia
+def _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx, work, ab, out):
+    """Peak friction of the balls whose slip stops before the force peak (``early`` of
+    :func:`_bounce_one`): mu times the normal force when the impulse reaches the slip's need
+    (:func:`_early_forces`), the balls taken piece by piece of the compression table (a
+    counting sort into ``sel``), so that one piece's coefficients serve them in turn."""
     n_pieces = comp.shape[0]
     width = x_max / n_pieces
+    counts[:] = 0
+    for j in range(n_early):
+        piece = min(int(early[E_X, j] / width), n_pieces - 1)
+        early[E_PIECE, j] = piece
+        counts[piece + 1] += 1
     for piece in range(n_pieces):
-        n_sel = 0
-        for j in range(n_early):
-            e = early[:, j]
-            x = e[E_X]
-            if min(int(x / width), n_pieces - 1) != piece:
-                continue
-            s0, mu, vn = e[E_S0], e[E_MU], e[E_VN]
-            slip_rate = mu * slip_rate_per_mu
-            gravity_rows(main, e[E_GAMMA], gamma_max, T_PPK * NX, N_TABLE * NX, rows)
-            x_values(rows, NX, T_PPK, N_TABLE, 2.0 * x / x_max - 1.0, tx, vals)
-            if abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
-                e[E_TARGET] = abs(s0) / (slip_rate * vn)
-                sel[n_sel] = j
-                n_sel += 1
-        _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab)
-        for k in range(n_sel):
-            e = early[:, sel[k]]
-            out[O_FT, int(e[E_INDEX])] = (e[E_MU] * max(e[E_SIGMA], initial_force(
-                kv, e[E_DAMPING])) * e[E_FSCALE])
+        counts[piece + 1] += counts[piece]
+    for j in range(n_early):
+        piece = int(early[E_PIECE, j])
+        sel[counts[piece]] = j
+        counts[piece] += 1
+    _early_forces(comp, sel, n_early, early, x_max, gamma_max, work, tx, ab)
+    for k in range(n_early):
+        e = early[:, k]
+        out[O_FT, int(e[E_INDEX])] = (e[E_MU] * max(e[E_SIGMA], initial_force(
+            kv, e[E_DAMPING])) * e[E_FSCALE])
 
 
 @njit(cache=True, inline="always")
-def _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
+def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
     """Normal force (scaled) when the impulse reaches ``E_TARGET`` during compression, for the
-    elements ``sel[:n_sel]`` of ``early`` (all in the compression table's ``piece``), into
-    their ``E_SIGMA`` row.
+    elements ``sel[:n_sel]`` of ``early`` (each in its piece ``E_PIECE`` of the compression
+    table), into their ``E_SIGMA`` row.
 
-    The compression table gives the impulse Pi and the force Phi as Chebyshev series in
-    sigma = sqrt(t / t_peak); Pi(sigma) = target is solved by Newton's method with
-    dPi/dsigma = Phi * 2 sigma t_peak (dPi/dt = Phi). Pi is increasing and convex in sigma, and
+    The compression table gives the force Phi as a Chebyshev series in
+    sigma = sqrt(t / t_peak), and :func:`_impulse_series` the impulse Pi; Pi(sigma) = target
+    is solved by Newton's method with dPi/dsigma = 4 scale sigma Phi (dPi/dt = Phi). Pi is increasing and convex in sigma, and
     sigma_0 = (target / Pi(1))^(1/5) lies at or beyond the root (Pi grows at most like
     sigma^5, the undamped start), so the iterates descend onto it; a bracket catches any
     step that would leave it. The searches advance side by side (one Newton step of each
     element per round): one search is a long chain of dependent operations, and the processor
     overlaps the chains of different elements. ``ab``: (BLOCK, 2 n_sigma) scratch."""
-    n_pieces, ns2 = comp.shape[0], 2 * COMPRESSION_NODES[2]
-    nxc, ns = comp.shape[2] // ns2, COMPRESSION_NODES[2]
+    n_pieces, ns = comp.shape[0], COMPRESSION_NODES[2]
+    nxc = comp.shape[2] // ns
     width = x_max / n_pieces
     for k in range(n_sel):
         e = early[:, sel[k]]
-        gravity_rows(comp[piece], e[E_GAMMA], gamma_max, 0, comp.shape[2], work)
-        x_values(work, nxc, 0, ns2, 2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0,
-                 tx, ab[k])
-        e[E_SIGMA] = _first_guess(ab[k], ns, e[E_TARGET], e[E_TPK])
+        piece = int(e[E_PIECE])
+        gravity_rows5(comp[piece], e[E_GAMMA], gamma_max, 0, comp.shape[2], work)
+        x_values(work, nxc, 0, ns, 2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0,
+                 tx, ab[k, ns + 2:])
+        e[E_SCALE] = _impulse_series(ab[k], ns, e[E_PPK], work)
+        e[E_SIGMA] = _first_guess(ab[k], ns, e[E_TARGET], e[E_SCALE])
         e[E_LO], e[E_HI], e[E_ACTIVE] = 0.0, 1.0, 1.0
     for _ in range(60):
         n_active = 0
@@ -559,7 +627,7 @@ def _early_forces(comp, piece, sel, n_sel, early, x_max, gamma_max, work, tx, ab
                 e[E_HI] = sigma
             else:
                 e[E_LO] = sigma
-            slope = phi * 2.0 * sigma * e[E_TPK]
+            slope = phi * 4.0 * sigma * e[E_SCALE]
             step = f / slope if slope > 0.0 else math.inf
             if abs(step) <= 3e-6:  # converged: quadratic, so the error after it is ~1e-11
                 e[E_SIGMA] = sigma - step
@@ -587,16 +655,17 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
     ``check_each``: whether elements may lie outside their bounds (see ``all_valid``).
 
     In blocks of ``BLOCK`` elements, two passes: every output of every element (one straight
-    loop body), then the peak friction of the balls whose slip stops (a third of the prior box,
-    each a root search in the compression table), so that the rare long branch does not sit
-    in the loop that every element runs through."""
+    loop body), then the peak friction of the balls whose slip stops before the force peak (a
+    third of the prior box, each a root search in the compression table), so that the long
+    branch does not sit in the loop that every element runs through."""
     rows = np.empty(N_TABLE * NX)
     tx = np.empty(NX)
     vals = np.empty(N_TABLE)
     work = np.empty(comp.shape[2])
-    ab = np.empty((BLOCK, 2 * COMPRESSION_NODES[2]))
+    ab = np.empty((BLOCK, 2 * COMPRESSION_NODES[2] + 2))
     early = np.empty((N_EARLY, BLOCK))
     sel = np.empty(BLOCK, dtype=np.int64)
+    counts = np.empty(comp.shape[0] + 1, dtype=np.int64)
     limit = HERTZ_OVERLAP_LIMIT * ball[B_R]
     shared_gravity = values[I_INCL].shape[0] == 1 and values[I_G].shape[0] == 1
     gx, gy = gravity_parts(values, 0)
@@ -625,8 +694,8 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
             rolling[i] = reason < 0
             flags[0, i] = out[O_DMAX, i] <= limit
             flags[1, i] = True
-        _early_friction(ball, main, comp, x_max, gamma_max, kv, early, n_early, sel, rows, tx,
-                        vals, work, ab, out)
+        _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx, work, ab,
+                        out)
     return n_invalid, n_fallback
 
 
