@@ -22,6 +22,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
+#: the same benchmarks on an idle server pinned to two cores (benchmarks/quiet_2core.sh)
+QUIET = RESULTS / "quiet"
 README = ROOT / "README.md"
 START, END = "<!-- speed-table:start -->", "<!-- speed-table:end -->"
 
@@ -76,31 +78,40 @@ ROWS: tuple[tuple[str, str, str, Callable[[object], str], str, str | None], ...]
      _num(".1f"), "8 s", "demo_ratio"),
     ("`bouncebayes demo`, warm numba cache (CPU-s, with children)", "startup", "demo_cpu_s",
      _num(".1f"), "", None),
-    ("tracking, 640 x 480 frames per second", "tracking", "frames_per_s_640x480", _num(".0f"),
-     "1000", None),
-    ("tracking, 224 x 64 frames per second", "tracking", "frames_per_s_224x64", _num(".0f"),
-     "5000", None),
-    ("population likelihood, 55 trials, two parameters (s)", "population", "seconds",
-     _num(".1f"), "10 s", None),
+    ("tracking, 640 x 480 frames per second", "tracking", "640x480.frames_per_s", _num(".0f"),
+     "1000", "640x480.ratio_to_baseline"),
+    ("tracking, 224 x 64 frames per second", "tracking", "224x64.frames_per_s", _num(".0f"),
+     "5000", "224x64.ratio_to_baseline"),
+    ("population likelihood, 55 trials, two parameters (s)", "population", "infer_seconds",
+     _num(".1f"), "10 s", "likelihood_speedup"),
+    ("SBC study on a local Dask cluster of 2 workers, speed-up over serial (wall clock)", "dask",
+     "speedup_wall", _num(".2f", "x"), "", None),
 )
 
 
 def table() -> str:
     """The markdown table of the stored results."""
-    cache: dict[str, dict | None] = {}
-    lines = ["| what | measured | target | against the baseline of the same run | file |",
-             "|---|---|---|---|---|"]
+    cache: dict[Path, dict | None] = {}
+
+    def load(path: Path) -> dict | None:
+        if path not in cache:
+            cache[path] = json.loads(path.read_text()) if path.is_file() else None
+        return cache[path]
+
+    lines = ["| what | shared 2-core machine | idle server, 2 cores | target | against the "
+             "baseline of the same run (shared; idle) | file |", "|---|---|---|---|---|---|"]
     for what, name, key, show, target, ratio_key in ROWS:
-        if name not in cache:
-            path = RESULTS / f"{name}.json"
-            cache[name] = json.loads(path.read_text()) if path.is_file() else None
-        data = cache[name]
-        value = None if data is None else _get(data, key)
-        if value is None:
+        values, ratios = [], []
+        for folder in (RESULTS, QUIET):
+            data = load(folder / f"{name}.json")
+            value = None if data is None else _get(data, key)
+            ratio = None if ratio_key is None or data is None else _get(data, ratio_key)
+            values.append("" if value is None else show(value))
+            ratios.append(f"{float(ratio):.3g}x" if isinstance(ratio, int | float) else "")
+        if not any(values):
             continue
-        ratio = None if ratio_key is None or data is None else _get(data, ratio_key)
-        shown_ratio = f"{float(ratio):.3g}x" if isinstance(ratio, int | float) else ""
-        lines.append(f"| {what} | {show(value)} | {target} | {shown_ratio} | "
+        shown_ratio = "; ".join(r for r in ratios if r) if any(ratios) else ""
+        lines.append(f"| {what} | {values[0]} | {values[1]} | {target} | {shown_ratio} | "
                      f"`benchmarks/results/{name}.json` |")
     return "\n".join(lines)
 

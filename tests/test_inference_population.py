@@ -310,21 +310,20 @@ def test_report_shows_the_population(tmp_path):
 
 
 def test_stored_sbc_study_is_calibrated():
-    """benchmarks/results/population_sbc.json (``python benchmarks/population_sbc.py``): at least
-    200 campaigns; 90 % coverage inside the 99 % binomial band for every hyper-parameter over
-    all campaigns; rank histograms uniform (chi-square p > 0.01) over the campaigns whose chains
-    agree (R-hat <= 1.01, where the tool gives no convergence warning). Over all campaigns the
-    spread of eta's ranks is lumpier (p = 0.005, from campaigns whose chains disagree, which
-    the tool flags): docs/likelihoods.md §6 gives every number."""
+    """benchmarks/results/population_sbc.json (``python benchmarks/population_sbc.py``, the
+    default ensemble sampler): at least 200 campaigns; 90 % coverage inside the 99 % binomial
+    band and rank histograms uniform (chi-square p > 0.01) for every hyper-parameter over all
+    campaigns, and coverage inside its band over the first 200 too (their ranks for mu_mean sit
+    at p = 0.010, on the test's edge: docs/likelihoods.md §6 gives every number)."""
     from pathlib import Path
 
     path = Path(__file__).resolve().parents[1] / "benchmarks" / "results" / "population_sbc.json"
     result = json.loads(path.read_text(encoding="utf-8"))
     assert result["campaigns_done"] >= 200
+    assert "ensemble" in result["settings"]["sampler"]
     lo, hi = result["coverage_bounds_99"]
-    agree = result["chains_agree"]
-    assert agree["campaigns"] >= 0.5 * result["campaigns_done"]
+    first = result["first_campaigns"]
     for name in ("mu_mean", "mu_sd", "eta_mean", "eta_sd"):
         assert lo <= result["parameters"][name]["coverage90"] <= hi, name
-        assert agree["parameters"][name]["chi2_p_value"] > 0.01, name
-        assert agree["parameters"][name]["coverage_ok"], name
+        assert result["parameters"][name]["chi2_p_value"] > 0.01, name
+        assert first["parameters"][name]["coverage_ok"], name
