@@ -56,10 +56,13 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/mypy
 
-## Speed benchmarks (not part of the tests)
+## Speed benchmarks (not part of the tests; the statistical and accuracy studies in
+## benchmarks/ -- sbc, population_sbc, discrepancy, tracking_accuracy, tracking_campaign -- run alone)
 bench: $(STAMP)
 	@for b in benchmarks/[a-z]*.py; do \
-		case $$b in benchmarks/speed_table.py|benchmarks/sbc.py) continue;; esac; \
+		case $$b in benchmarks/speed_table.py|benchmarks/sbc.py|benchmarks/population_sbc.py|\
+			benchmarks/discrepancy.py|benchmarks/tracking_accuracy.py|\
+			benchmarks/tracking_campaign.py) continue;; esac; \
 		echo "== $$b"; OPENBLAS_NUM_THREADS=1 $(BIN)/python $$b || exit 1; \
 	done
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python benchmarks/forward.py --compliant
