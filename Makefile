@@ -43,7 +43,8 @@ test-newest:
 			'arviz-base>=1' 'arviz-stats[xarray]>=1' && \
 		$(NEWEST)/bin/pip list 2>/dev/null | grep -i -E '^(arviz-base|arviz-stats|xarray|numpy) ' && \
 		$(NEWEST)/bin/python -m pytest tests/test_inference.py tests/test_priors.py \
-			tests/test_inference_adequacy.py tests/test_report.py; \
+			tests/test_inference_adequacy.py tests/test_report.py \
+			tests/test_inference_population.py; \
 	else \
 		echo "test-newest: no runnable Python 3.12 found. ArviZ 1.x (arviz-base and arviz-stats >= 1)"; \
 		echo "needs Python >= 3.12, so the newest supported ArviZ cannot be tested with this"; \
