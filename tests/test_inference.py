@@ -43,19 +43,11 @@ from bouncebayes.inference._grid_kernel import gaussian_grid
 from bouncebayes.inference._likelihood import make_likelihood
 from bouncebayes.inference._summary import (diagnostics, marginal_modes,
                                             summarize_parameter, warnings_for)
+from demo_experiment import experiment
 
 DEMO = demo_campaign()
 PAPER_TRUTH = {"mu": 0.16, "eta": 1.35}
 SECOND_TRUTH = {"mu": 0.10, "eta": 2.5}
-
-
-def experiment(**changes):
-    """The demo (paper) experiment with ``section__key=value`` changes."""
-    doc = tomllib.loads(DEMO.experiment.read_text(encoding="utf-8"))
-    for path, value in changes.items():
-        section, key = path.split("__")
-        doc[section][key] = value
-    return parse_experiment(doc)
 
 
 def campaign(exp, seed: int, n: int = 55):

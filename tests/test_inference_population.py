@@ -35,18 +35,10 @@ from bouncebayes.inference import MemoryBudgetError, MHConfig, infer, write_outp
 from bouncebayes.inference._likelihood import make_likelihood
 from bouncebayes.inference._population import hat_weights, make_population
 from bouncebayes.report import load_result
+from demo_experiment import experiment
 
 DEMO = demo_campaign()
 FAST = MHConfig(draws=3000, chains=4, burn_in=1500, thin=2)
-
-
-def experiment(**changes):
-    """The demo (paper) experiment with ``section__key=value`` changes."""
-    doc = tomllib.loads(DEMO.experiment.read_text(encoding="utf-8"))
-    for path, value in changes.items():
-        section, key = path.split("__")
-        doc[section][key] = value
-    return parse_experiment(doc)
 
 
 @pytest.fixture(scope="module")
