@@ -233,9 +233,9 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     times["data"] = time.perf_counter() - start
 
     likelihood = settings["likelihood"] or experiment.inference["likelihood"]
-    from .inference import default_sampler, sampler_of
+    from .inference import resolve_sampler
 
-    sampler = settings["sampler"] or sampler_of(settings["config"]) or default_sampler(likelihood)
+    sampler = resolve_sampler(settings["sampler"], settings["config"], likelihood)
     start = _stage(2, f"inference ({likelihood} likelihood, {sampler} sampler)", log)
     result = infer(experiment, trials, **settings)
     write_outputs(result, stage)

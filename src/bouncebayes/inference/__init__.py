@@ -18,7 +18,7 @@ from ._config import GridConfig as GridConfig
 from ._config import MHConfig as MHConfig
 from ._config import default_sampler as default_sampler
 from ._config import sampler_config as sampler_config
-from ._config import sampler_of as sampler_of
+from ._config import resolve_sampler as resolve_sampler
 from ._draws import Draws as Draws
 from ._ensemble import EnsembleInfo as EnsembleInfo
 from ._ensemble import EnsembleRun as EnsembleRun
@@ -69,5 +69,5 @@ __all__ = [
     "population_hyper_names", "ParameterSummary", "Replicates",
     "default_sampler", "ensemble_init", "ensemble_step", "format_table", "infer", "inference_data",
     "load_inference", "marginal_modes", "plan_memory", "mh_init", "mh_step", "noise_priors",
-    "sampler_config", "sampler_of", "write_outputs",
+    "resolve_sampler", "sampler_config", "write_outputs",
 ]

@@ -155,3 +155,11 @@ def sampler_of(config: object) -> str | None:
     """The sampler a configuration belongs to (``None`` for none)."""
     return next((name for name, cls in CONFIGS.items() if isinstance(config, cls)), None)
 
+
+def resolve_sampler(sampler: str | None, config: object, likelihood: str | None) -> str:
+    """The sampler a run uses: ``sampler`` if named, else the one ``config`` belongs to, else
+    the likelihood's default (:func:`default_sampler`)."""
+    if sampler is not None:
+        return sampler
+    return sampler_of(config) or default_sampler(likelihood)
+

@@ -16,7 +16,7 @@ from ..data import Experiment, Trials
 from ._adequacy import Adequacy, assess
 from ._checks import data_warnings
 from ._config import (GRID_POINTS, SAMPLERS, AnyConfig, MHConfig, config_for,
-                      default_sampler, sampler_config, sampler_of)
+                      resolve_sampler, sampler_config)
 from ._draws import Draws
 from ._ensemble import EnsembleRun, sample_ensemble
 from ._grid import GridRun, check_grid_memory, grid_bytes, sample_grid
@@ -135,7 +135,7 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = No
         sampler: ``"mh"`` (the paper's Metropolis–Hastings), ``"ensemble"`` (emcee) or
             ``"grid"`` (exact quadrature, up to 3 parameters); default: the sampler of
             ``config``, else ``"mh"`` (``"ensemble"`` for the population likelihood,
-            :func:`default_sampler`).
+            :func:`resolve_sampler`).
         seed: the only source of randomness; same seed and inputs, identical draws.
         config: the sampler's settings, :class:`MHConfig`, :class:`EnsembleConfig` or
             :class:`GridConfig` (default: the sampler's defaults; the paper's for mh).
@@ -161,8 +161,7 @@ def infer(experiment: Experiment, trials: Trials, *, likelihood: str | None = No
     likelihood = settings["likelihood"] if likelihood is None else likelihood
     noise = settings["noise"] if noise is None else noise
     discrepancy = settings["discrepancy"] if discrepancy is None else discrepancy
-    sampler = sampler if sampler is not None else (sampler_of(config)
-                                                    or default_sampler(likelihood))
+    sampler = resolve_sampler(sampler, config, likelihood)
     _check_arguments(likelihood, sampler, noise, discrepancy, seed)
     budget = check_memory_budget(memory_budget)
     config = config_for(sampler, config)
