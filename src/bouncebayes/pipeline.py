@@ -371,7 +371,7 @@ def warmup(log: Callable[[str], None] = print) -> float:
 
 
 _WARMUP_CASES = (("gaussian", "mh"), ("kde", "mh"), ("consistent", "grid"),
-                 ("gaussian", "ensemble"))
+                 ("gaussian", "ensemble"), ("population", "ensemble"))
 
 
 def _warm_once(demo, out: Path, likelihood: str, sampler: str, config: Any) -> None:
