@@ -319,3 +319,15 @@ def test_stored_sbc_study_is_calibrated():
         assert lo <= result["parameters"][name]["coverage90"] <= hi, name
         assert result["parameters"][name]["chi2_p_value"] > 0.01, name
         assert first["parameters"][name]["coverage_ok"], name
+
+
+def test_a_flag_of_another_sampler_names_the_likelihoods_default(tmp_path, capsys):
+    """Without ``--sampler`` the population likelihood runs the ensemble sampler; an mh-only
+    flag is refused naming that default and how to choose another."""
+    code = main(["infer", str(DEMO.experiment), str(DEMO.trials), "--out", str(tmp_path / "o"),
+                 "--likelihood", "population", "--chains", "3", "--quiet"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "`--chains` applies to the mh sampler" in err
+    assert "the ensemble sampler (the likelihood's default" in err
+    assert not (tmp_path / "o").exists()

@@ -293,7 +293,9 @@ def sampler_config(args: argparse.Namespace, experiment=None):
     from ..inference import SAMPLER_CONFIGS, default_sampler
     from ..inference import sampler_config as make_config
 
+    uses = "`--sampler {}`"
     if args.sampler is None:
+        uses = ("the {} sampler (the likelihood's default; choose another with `--sampler`)")
         likelihood = getattr(args, "likelihood", None)
         if likelihood is None and experiment is not None:
             if not hasattr(experiment, "inference"):
@@ -311,5 +313,5 @@ def sampler_config(args: argparse.Namespace, experiment=None):
         if args.sampler not in users:
             raise UserError(f"`{SAMPLER_FLAGS[name]}` applies to the {' and '.join(users)} "
                             f"sampler{'s' if len(users) > 1 else ''}; this command uses "
-                            f"`--sampler {args.sampler}`")
+                            + uses.format(args.sampler))
     return make_config(args.sampler, **given)
