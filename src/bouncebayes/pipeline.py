@@ -9,6 +9,7 @@ exactly as they were; files of the user's own in an earlier run folder are kept.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import shutil
 import tempfile
@@ -201,9 +202,10 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         settings["population"] = population
     times: dict[str, float] = {}
     with staged_output(out, "folder") as stage:
-        result, prop = _analyse(experiment_path, data, stage, out, settings, times, log, fps,
-                                truth)
-        report = _draw(result, prop, stage, times, log, record, figure_formats, progress)
+        with contextlib.ExitStack() as background:
+            result, prop = _analyse(experiment_path, data, stage, out, settings, times, log,
+                                    fps, truth, background)
+            report = _draw(result, prop, stage, times, log, record, figure_formats, progress)
         stamp_tree(stage, record)
         carry_over(out, stage, log)
     from .inference import format_table
@@ -218,8 +220,10 @@ def _stage(k: int, name: str, log) -> float:
 
 
 def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings: dict,
-             times: dict, log, fps, truth):
-    """Stages 1-3: the trial table, the posterior, its propagation (written into ``stage``)."""
+             times: dict, log, fps, truth, background: contextlib.ExitStack):
+    """Stages 1-3: the trial table, the posterior, its propagation (written into ``stage``;
+    the posterior's files perhaps by a forked copy that ``background`` waits for)."""
+    from ._background import in_background
     from .data import load_experiment
     from .inference import infer, write_outputs
     from .propagation import derive, propagate, write_derived, write_propagation
@@ -238,8 +242,12 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     sampler = resolve_sampler(settings["sampler"], settings["config"], likelihood)
     start = _stage(2, f"inference ({likelihood} likelihood, {sampler} sampler)", log)
     result = infer(experiment, trials, **settings)
-    write_outputs(result, stage)
     times["inference"] = time.perf_counter() - start
+
+    # posterior.nc and summary.json are read by no later stage: a spare core writes them
+    # (its import of the NetCDF stack included) while this process goes on (``background``
+    # waits for it before the run folder is stamped and committed)
+    background.enter_context(in_background(lambda: write_outputs(result, stage)))
 
     start = _stage(3, "propagation of the posterior", log)
     prop = propagate(result, progress=settings["progress"])

@@ -243,7 +243,8 @@ class BounceModel:
                 explain_invalid(self.values, self.normal_law)
             main, _, _, gamma_max, kv = self._tables
             nc = self.n_conditions
-            cond, cond_rows = np.empty((_fast.N_COND, nc)), np.empty((nc, 2 * _fast.NX))
+            cond = np.empty((_fast.N_COND, nc))
+            cond_rows = np.empty((nc, _fast.MAIN_PIECES, 2 * _fast.NX))
             _fast.prepare_conditions(self.inputs.values, self.inputs.ball, self.bounds, main,
                                      gamma_max, kv, cond, cond_rows)
             self._conditions = cond, cond_rows
@@ -330,7 +331,7 @@ def _tables(law: str):
     law the closed form does not cover: every element then goes to the ODE solver."""
     if law in _fast.DOMAIN:
         return _fast.kernel_tables(law)
-    return (np.zeros((_fast.NG, 2 * _fast.NX)), np.zeros((1, _fast.NG, 1)), -1.0, -1.0,
+    return (np.zeros((1, _fast.NG, 2 * _fast.NX)), np.zeros((1, _fast.NG, 1)), -1.0, -1.0,
             LAW_CODES[law])
 
 

@@ -20,12 +20,14 @@ change this one needs. The damping number enters through ``zeta^(1/3)`` for Kelv
 overlap at separation scales like ``zeta^(2/3)``, which spoils polynomial interpolation in
 ``zeta`` itself); in that variable 24 x 8 Chebyshev nodes reach ~1e-10 (tests/test_model_fast.py).
 
-How it is evaluated (the cost of a bounce): the gravity axis is contracted first, for all
-quantities at once (``gravity_rows``: eight explicit terms per coefficient, a loop the compiler
-vectorises), then each quantity is a dot product with the Chebyshev basis in the damping
-variable (``x_values``). Samplers evaluate the same incidence conditions over and over, so
-:class:`~bouncebayes.model.BounceModel` contracts the gravity axis once per condition
-(``prepare_conditions``) and a bounce then costs one cube root and two 24-term dot products.
+How it is evaluated (the cost of a bounce): the kernels read the table in 32 pieces of the
+damping axis, each an 8-term series (``MAIN_PIECES``: the 24-term series re-expanded, to
+~5e-12); in the bounce's piece the gravity axis is contracted first, for all quantities at once
+(``gravity_rows``: eight explicit terms per coefficient, a loop the compiler vectorises), then
+each quantity is a dot product with the Chebyshev basis in the damping variable
+(``x_values``). Samplers evaluate the same incidence conditions over and over, so
+:class:`~bouncebayes.model.BounceModel` contracts the gravity axis once per condition and piece
+(``prepare_conditions``) and a bounce then costs one cube root and two 8-term dot products.
 
 Where the closed form is not exact (on a slope when the slip stops or might stop, when the ball
 starts rolling on a slope) or the table does not reach (strong damping, slow impacts), the
@@ -59,7 +61,14 @@ from ._outputs import (O_ANGLE, O_DMAX, O_DSEP, O_FN, O_FT, O_SPEED, O_SPIN, O_S
 T_E, T_TC, T_FN, T_DMAX, T_DSEP, T_TPK, T_PPK = range(7)
 N_TABLE = 7
 TABLE_NODES = (24, 8)  # damping x gravity
-NX, NG = TABLE_NODES  # the kernels are written for these sizes (eight gravity terms)
+NG = TABLE_NODES[1]  # the kernels are written for eight gravity terms
+# The kernels read the main table in MAIN_PIECES equal pieces of the damping axis, each a
+# Chebyshev series of NX terms in the piece's own variable (gravity untouched): the 24-term
+# series re-expanded exactly, piece by piece (:func:`_main_pieces`), which reproduces it to
+# ~3e-12 (tests/test_model_fast.py) for a third of the multiply-adds of a bounce (8 x 8 terms a
+# quantity instead of 24 x 8). Six gravity terms in the pieces would leave ~1e-7: gravity stays.
+MAIN_PIECES = 32
+NX = 8
 # The compression table: the scaled normal force Phi along the compression before the force
 # peak, as a function of sigma = sqrt(t / t_peak) (the ODE solution is a power series in
 # sqrt(t) there, so that Phi is smooth in sigma), the damping variable and the gravity number;
@@ -120,8 +129,10 @@ class NormalTable:
 
     @property
     def gravity_first(self) -> np.ndarray:
-        """The main table as the kernels read it: (NG, N_TABLE * NX), gravity axis first."""
-        return _gravity_first(self.coef)
+        """The main table as the kernels read it: (MAIN_PIECES, NG, N_TABLE * NX), in pieces
+        of the damping axis (:func:`_main_pieces`), gravity axis first."""
+        return np.ascontiguousarray(np.stack([_gravity_first(c)
+                                              for c in _main_pieces(self.coef)]))
 
     @property
     def compression_gravity_first(self) -> np.ndarray:
@@ -133,6 +144,22 @@ class NormalTable:
 def _gravity_first(coef: np.ndarray) -> np.ndarray:
     """(q, i, j) -> (j, q * n_i + i)."""
     return np.ascontiguousarray(coef.transpose(2, 0, 1).reshape(coef.shape[2], -1))
+
+
+def _main_pieces(coef: np.ndarray) -> np.ndarray:
+    """The main table's damping axis in MAIN_PIECES equal pieces of NX Chebyshev terms each:
+    (piece, quantity, NX, n_gravity). Each gravity coefficient's series in the damping variable
+    is evaluated at the piece's NX Chebyshev nodes and interpolated there (exact for the
+    series' smooth pieces to ~3e-12; no new ODE solutions)."""
+    nodes = _cheb_nodes(NX)
+    basis_inv = np.linalg.inv(np.polynomial.chebyshev.chebvander(nodes, NX - 1))
+    out = np.empty((MAIN_PIECES, coef.shape[0], NX, coef.shape[2]))
+    for p in range(MAIN_PIECES):
+        u = 2.0 * (p + 0.5 * (nodes + 1.0)) / MAIN_PIECES - 1.0  # the global variable
+        values = np.einsum("qij,ni->qnj", coef,
+                           np.polynomial.chebyshev.chebvander(u, coef.shape[1] - 1))
+        out[p] = np.einsum("an,qnj->qaj", basis_inv, values)
+    return out
 
 
 def _cheb_nodes(n: int) -> np.ndarray:
@@ -353,6 +380,15 @@ def gravity_rows5(c, gamma, gamma_max, start, stop, rows):
 
 
 @njit(cache=True, inline="always")
+def main_piece(x, x_max):
+    """The main table's piece of the damping variable ``x`` in [0, x_max] and the piece's own
+    variable in [-1, 1]."""
+    z = x * (MAIN_PIECES / x_max)
+    piece = min(max(int(z), 0), MAIN_PIECES - 1)
+    return piece, 2.0 * (z - piece) - 1.0
+
+
+@njit(cache=True, inline="always")
 def x_values(rows, n, q0, q1, u, tx, vals):
     """vals[q] = sum_i rows[q n + i] T_i(u) for q in [q0, q1): the damping axis (basis once,
     then dot products with four partial sums)."""
@@ -514,8 +550,9 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
     d_star, t_star, damping, x, gamma = normal_scales(m, k, eta, gy, vn, kv)
     if not (x <= x_max and gamma <= gamma_max):
         return FB_DOMAIN, n_early
-    gravity_rows(main, gamma, gamma_max, 0, T_PPK * NX, rows)
-    x_values(rows, NX, T_E, T_PPK, 2.0 * x / x_max - 1.0, tx, vals)
+    piece, ux = main_piece(x, x_max)
+    gravity_rows(main[piece], gamma, gamma_max, 0, T_PPK * NX, rows)
+    x_values(rows, NX, T_E, T_PPK, ux, tx, vals)
     tc = vals[T_TC] * t_star
     impulse = vn * (1.0 + vals[T_E] + gamma * vals[T_TC])  # P / m over the contact
     exact, u, w, phase, slides = tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse)
@@ -528,12 +565,12 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
         s0 = u0 + r * w0
         slip_rate = mu * (1.0 + m * r * r / inertia)
         if s0 != 0.0:  # the impulse up to the force peak (tx still holds the damping basis)
-            gravity_rows(main, gamma, gamma_max, T_PPK * NX, N_TABLE * NX, rows)
+            gravity_rows(main[piece], gamma, gamma_max, T_PPK * NX, N_TABLE * NX, rows)
             vals[T_PPK] = _dot(rows, T_PPK * NX, tx, NX)
         if s0 == 0.0:
             ft_peak = 0.0
         elif abs(s0) / slip_rate < vn * vals[T_PPK]:  # stops before the force peak
-            e = early[:, n_early]
+            e = early[n_early]
             e[E_INDEX], e[E_X], e[E_GAMMA], e[E_TARGET] = i, x, gamma, abs(s0) / (slip_rate * vn)
             e[E_MU], e[E_PPK], e[E_DAMPING] = mu, vals[T_PPK], damping
             e[E_FSCALE] = f_scale
@@ -571,18 +608,18 @@ def _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx,
     width = x_max / n_pieces
     counts[:] = 0
     for j in range(n_early):
-        piece = min(int(early[E_X, j] / width), n_pieces - 1)
-        early[E_PIECE, j] = piece
+        piece = min(int(early[j, E_X] / width), n_pieces - 1)
+        early[j, E_PIECE] = piece
         counts[piece + 1] += 1
     for piece in range(n_pieces):
         counts[piece + 1] += counts[piece]
     for j in range(n_early):
-        piece = int(early[E_PIECE, j])
+        piece = int(early[j, E_PIECE])
         sel[counts[piece]] = j
         counts[piece] += 1
     _early_forces(comp, sel, n_early, early, x_max, gamma_max, work, tx, ab)
     for k in range(n_early):
-        e = early[:, k]
+        e = early[k]
         out[O_FT, int(e[E_INDEX])] = (e[E_MU] * max(e[E_SIGMA], initial_force(
             kv, e[E_DAMPING])) * e[E_FSCALE])
 
@@ -605,7 +642,7 @@ def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
     nxc = comp.shape[2] // ns
     width = x_max / n_pieces
     for k in range(n_sel):
-        e = early[:, sel[k]]
+        e = early[sel[k]]
         piece = int(e[E_PIECE])
         gravity_rows5(comp[piece], e[E_GAMMA], gamma_max, 0, comp.shape[2], work)
         x_values(work, nxc, 0, ns, 2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0,
@@ -616,7 +653,7 @@ def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
     for _ in range(60):
         n_active = 0
         for k in range(n_sel):
-            e = early[:, sel[k]]
+            e = early[sel[k]]
             if e[E_ACTIVE] == 0.0:
                 continue
             n_active += 1
@@ -643,7 +680,7 @@ def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
         if n_active == 0:
             break
     for k in range(n_sel):  # the force at the root (E_SIGMA now holds it)
-        e = early[:, sel[k]]
+        e = early[sel[k]]
         e[E_SIGMA] = _impulse_force(ab[k], ns, 2.0 * e[E_SIGMA] - 1.0, tx)[1]
 
 
@@ -659,11 +696,11 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
     third of the prior box, each a root search in the compression table), so that the long
     branch does not sit in the loop that every element runs through."""
     rows = np.empty(N_TABLE * NX)
-    tx = np.empty(NX)
+    tx = np.empty(max(NX, COMPRESSION_NODES[2] + 2))  # also the compression series' basis
     vals = np.empty(N_TABLE)
     work = np.empty(comp.shape[2])
     ab = np.empty((BLOCK, 2 * COMPRESSION_NODES[2] + 2))
-    early = np.empty((N_EARLY, BLOCK))
+    early = np.empty((BLOCK, N_EARLY))  # one row per ball: its fields side by side
     sel = np.empty(BLOCK, dtype=np.int64)
     counts = np.empty(comp.shape[0] + 1, dtype=np.int64)
     limit = HERTZ_OVERLAP_LIMIT * ball[B_R]
@@ -765,7 +802,8 @@ def prepare_conditions(values, ball, bounds, main, gamma_max, kv, cond, cond_row
         cond[C_CZ, c] = damping  # damping number per unit eta
         if gamma <= gamma_max:
             cond[C_STATE, c] = CS_TABLE
-            gravity_rows(main, gamma, gamma_max, 0, 2 * NX, cond_rows[c])
+            for piece in range(MAIN_PIECES):
+                gravity_rows(main[piece], gamma, gamma_max, 0, 2 * NX, cond_rows[c, piece])
         else:
             cond[C_STATE, c] = CS_OUTSIDE
 
@@ -801,8 +839,9 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_ma
             ball[B_M], ball[B_KFAC] * theta[r, cols[2]], eta, cond[C_GY, c], vn, kv)
         if not (x <= x_max and gamma <= gamma_max):
             return -3
-        gravity_rows(main, gamma, gamma_max, 0, 2 * NX, rows)
-        x_values(rows, NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
+        piece, ux = main_piece(x, x_max)
+        gravity_rows(main[piece], gamma, gamma_max, 0, 2 * NX, rows)
+        x_values(rows, NX, T_E, T_TC + 1, ux, tx, vals)
     else:
         if state == CS_OUTSIDE:
             return -3
@@ -810,7 +849,8 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_ma
         x = damping_variable(kv, eta * cond[C_CZ, c])
         if not x <= x_max:
             return -3
-        x_values(cond_rows[c], NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
+        piece, ux = main_piece(x, x_max)
+        x_values(cond_rows[c, piece], NX, T_E, T_TC + 1, ux, tx, vals)
     tc = vals[T_TC] * t_star
     impulse = vn * (1.0 + vals[T_E] + gamma * vals[T_TC])
     exact, u, w, phase, slides = tangential_one(
@@ -844,8 +884,9 @@ def _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, co
             codes[c] = -3
         else:
             codes[c] = 0
-            row = cond_rows[c]
-            cheb_basis(2.0 * x / x_max - 1.0, tx, NX)
+            piece, ux = main_piece(x, x_max)
+            row = cond_rows[c, piece]
+            cheb_basis(ux, tx, NX)
             stage[1, c] = _dot(row, T_E * NX, tx, NX)
             stage[2, c] = _dot(row, T_TC * NX, tx, NX)
     for c in range(nc):
@@ -950,7 +991,8 @@ def gaussian_grid(mu, eta, cond, cond_rows, ball, bounds, x_max, gamma_max, kv, 
                 for i in range(n_mu):
                     bad[i, j] = True
                 continue
-            x_values(cond_rows[c], NX, T_E, T_TC + 1, 2.0 * x / x_max - 1.0, tx, vals)
+            piece, ux = main_piece(x, x_max)
+            x_values(cond_rows[c, piece], NX, T_E, T_TC + 1, ux, tx, vals)
             tc = vals[T_TC] * cond[C_TSTAR, c]
             impulse = vn * (1.0 + vals[T_E] + cond[C_GAMMA, c] * vals[T_TC])
             vn_out = vals[T_E] * vn

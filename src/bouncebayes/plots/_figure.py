@@ -11,9 +11,6 @@ from __future__ import annotations
 
 import functools
 import os
-import sys
-import threading
-import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, cast
@@ -118,15 +115,12 @@ def save_figures(files: list[tuple[Figure, list[Path]]], workers: int | None = N
     again and raises what goes wrong. With other (non-daemon) Python threads running,
     everything is rendered here.
     """
+    from .._background import can_fork, fork_call
+
     if workers is None:
         workers = _default_workers()
     workers = max(1, min(workers, len(files)))
-    # a fork copies only the calling thread: another thread could hold a lock the copy then
-    # waits on forever (matplotlib's renderer lock, say), so with any, render here; daemon
-    # threads are background helpers that draw nothing (tqdm's monitor of progress bars)
-    others = [t for t in threading.enumerate()
-              if t is not threading.current_thread() and not t.daemon]
-    if workers == 1 or not sys.platform.startswith("linux") or others:
+    if workers == 1 or not can_fork():
         _save_all(files)
         return
     shares: list[list[tuple[Figure, list[Path]]]] = [[] for _ in range(workers)]
@@ -135,26 +129,10 @@ def save_figures(files: list[tuple[Figure, list[Path]]], workers: int | None = N
         k = load.index(min(load))
         shares[k].append(job)
         load[k] += len(job[0].axes) + 1
-    children = []
-    for share in shares[1:]:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)  # Python >= 3.12 on threads:
-            pid = os.fork()  # the copy runs no thread of the parent's (numba's, BLAS')
-        if pid == 0:  # pragma: no cover - the forked copy (its coverage is not collected)
-            code = 1
-            try:
-                _save_all(share)
-                code = 0
-            finally:
-                os._exit(code)
-        children.append((pid, share))
+    children = [fork_call(functools.partial(_save_all, share)) for share in shares[1:]]
     _save_all(shares[0])
-    for pid, share in children:
-        _, status = os.waitpid(pid, 0)
-        if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):
-            _save_all(share)
+    for child in children:
+        child.join()  # a copy that failed: its figures rendered here
 
 
 def _default_workers() -> int:
@@ -169,9 +147,9 @@ def _default_workers() -> int:
             raise ValueError(f"environment variable BOUNCEBAYES_FIGURE_WORKERS must be a "
                              f"positive integer (processes rendering figures); got {text!r}")
         return int(text)
-    cores = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
-             else os.cpu_count() or 1)
-    idle = cores + 1.0 - (os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0)
+    from .._background import idle_cores
+
+    cores, idle = idle_cores()
     return max(1, min(4, cores, int(idle + 0.5)))
 
 
