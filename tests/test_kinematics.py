@@ -468,6 +468,19 @@ def test_quadratic_drag_fit_of_drag_free_flight_agrees_with_the_plain_fit():
         assert getattr(drag, q + "_se") >= 0.99 * getattr(plain, q + "_se")
 
 
+def test_drag_solution_without_sensitivities_is_the_same_flight():
+    """The drag gate integrates the flight alone (no variational equations): positions and
+    velocities are bit-identical to the full solution's (the state equations do not involve
+    the sensitivities), on both sides of the impact, with lift."""
+    from bouncebayes.kinematics import _drag
+
+    p = np.array([0.01, 0.2, 1.5, -2.0, 0.3, -9.81, 0.25, 4.0])  # r, v, a, k, lift (2-D)
+    taus = np.linspace(-0.04, 0.06, 41)
+    full = _drag.solve(p, 2, taus)
+    alone = _drag.solve(p, 2, taus, sensitivities=False)
+    assert np.array_equal(full[0], alone[0]) and np.array_equal(full[1], alone[1])
+
+
 # ------------------------------------------------------------------------- folder and table
 
 def test_folder_reports_bad_files_and_keeps_the_good_ones(tmp_path):

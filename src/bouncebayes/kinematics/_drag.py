@@ -99,14 +99,17 @@ def _rk4_step(r, v, sr, sv, a, k, c, h, d, n_par, n_lift, dv, dsv, vk, svk, scra
 
 
 @njit(cache=True)
-def drag_solution(p, d, taus, max_step):
+def drag_solution(p, d, taus, max_step, sensitivities=True):
     """Positions, velocities and their parameter sensitivities at ``taus`` (each of one sign,
     ordered away from 0) for ``p = (r0, v0, a, k[, c])``, the state at ``tau = 0`` (``c``: the
     lift vector, 1 component in 2-D, 3 in 3-D, or none).
 
-    Returns arrays ``R (m, d)``, ``V (m, d)``, ``SR (m, d, P)``, ``SV (m, d, P)``.
+    Returns arrays ``R (m, d)``, ``V (m, d)``, ``SR (m, d, P)``, ``SV (m, d, P)``; without
+    ``sensitivities`` the variational equations (most of the work) are not integrated and the
+    last two mean nothing.
     """
     n_par = p.size
+    n_sens = n_par if sensitivities else 0
     n_lift = n_par - 3 * d - 1
     m = taus.size
     R = np.empty((m, d))
@@ -133,7 +136,7 @@ def drag_solution(p, d, taus, max_step):
         span = taus[j] - now
         n_steps = max(1, int(math.ceil(abs(span) / max_step))) if span != 0.0 else 0
         for _ in range(n_steps):
-            _rk4_step(r, v, sr, sv, a, k, c, span / n_steps, d, n_par, n_lift, dv, dsv, vk,
+            _rk4_step(r, v, sr, sv, a, k, c, span / n_steps, d, n_sens, n_lift, dv, dsv, vk,
                       svk, scratch)
         now = taus[j]
         R[j] = r
@@ -143,16 +146,16 @@ def drag_solution(p, d, taus, max_step):
     return R, V, SR, SV
 
 
-def solve(p: np.ndarray, d: int, taus: np.ndarray
+def solve(p: np.ndarray, d: int, taus: np.ndarray, sensitivities: bool = True
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`drag_solution` at any ``taus`` (either sign, any order), in their order."""
     taus = np.asarray(taus, dtype=float)
     p = np.asarray(p, dtype=float)
     if taus.size > 1 and np.all(taus[1:] >= taus[:-1]):  # sorted in time: the usual case
         i = int(np.searchsorted(taus, 0.0))
-        parts = [drag_solution(p, d, taus[:i][::-1], RK4_MAX_STEP)] if i else []
+        parts = [drag_solution(p, d, taus[:i][::-1], RK4_MAX_STEP, sensitivities)] if i else []
         if i < taus.size:
-            parts.append(drag_solution(p, d, taus[i:], RK4_MAX_STEP))
+            parts.append(drag_solution(p, d, taus[i:], RK4_MAX_STEP, sensitivities))
         if i:
             parts[0] = tuple(a[::-1] for a in parts[0])
         return tuple(np.concatenate(arrays) if len(parts) > 1 else arrays[0]
@@ -163,7 +166,7 @@ def solve(p: np.ndarray, d: int, taus: np.ndarray
         idx = np.flatnonzero(side)
         if idx.size:
             idx = idx[np.argsort(np.abs(taus[idx]), kind="stable")]
-            for arr, part in zip(out, drag_solution(p, d, taus[idx], RK4_MAX_STEP),
-                                 strict=True):
+            solution = drag_solution(p, d, taus[idx], RK4_MAX_STEP, sensitivities)
+            for arr, part in zip(out, solution, strict=True):
                 arr[idx] = part
     return out

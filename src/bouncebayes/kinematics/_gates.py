@@ -161,7 +161,7 @@ def _velocity_bias(flight: Flight, tau_i: float, k: float) -> np.ndarray:
     r, v, a, *_ = flight.state(tau_i)
     taus = flight.tau - tau_i
     with np.errstate(all="ignore"):
-        R = _drag.solve(np.r_[r, v, a, k], flight.d, taus)[0]
+        R = _drag.solve(np.r_[r, v, a, k], flight.d, taus, sensitivities=False)[0]
         X = np.column_stack([np.ones_like(taus), taus, taus * taus])
         coef, *_ = np.linalg.lstsq(X, R, rcond=None)
     bias = coef[1] - v
