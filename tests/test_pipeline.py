@@ -319,3 +319,28 @@ def test_run_passes_progress_to_propagation_and_figures(tmp_path, demo, monkeypa
                         config=bb.inference.GridConfig(draws=200, points=64), sampler="grid",
                         log=lambda m: None)
     assert seen == {"propagate": True, "figures": True}
+
+
+def test_grid_run_draws_its_joint_posterior_from_the_grid_file_with_a_spare_core(
+        demo, tmp_path, monkeypatch):
+    """With a spare core the posterior's files are written by a forked copy while the run goes
+    on, but not the grid sampler's grid.npz, which the joint-posterior figure reads: that
+    figure still shows the grid's exact density (not a KDE of the draws)."""
+    import bouncebayes._background
+    import bouncebayes.plots._posterior as post
+
+    monkeypatch.setattr(bouncebayes._background, "spare_core", lambda: True)
+    sources = []
+    real = post.joint_density
+
+    def spy(result, grid_file=None):
+        out = real(result, grid_file)
+        sources.append(out[-1])
+        return out
+
+    monkeypatch.setattr(post, "joint_density", spy)
+    out = tmp_path / "o"
+    bb.pipeline.run(demo.experiment, demo.trials, out, sampler="grid",
+                    config=bb.inference.GridConfig(draws=200, points=64), log=lambda m: None)
+    assert sources == ["grid quadrature"]
+    assert {"grid.npz", "posterior.nc", "summary.json"} <= {p.name for p in out.iterdir()}
