@@ -53,9 +53,10 @@ def visible_fraction(centre: np.ndarray, r: float, shape: tuple[int, int]) -> np
 
 
 def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: np.ndarray,
-                  method: np.ndarray, contrast: np.ndarray
+                  method: np.ndarray, contrast: np.ndarray, *, compiled: bool = True
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``residual`` (grey levels), ``visible`` (0-1) and ``flag`` of every frame."""
+    """``residual`` (grey levels), ``visible`` (0-1) and ``flag`` of every frame; ``compiled``:
+    the misfit by :func:`._fast.quality_misfit`, else by the Python loop (the reference)."""
     n = len(frames)
     residual = np.full(n, np.nan)
     flag = np.zeros(n, bool)
@@ -65,16 +66,41 @@ def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: 
     r = float(np.median(radius[whole]))
     visible = visible_fraction(centre, r, frames.shape[1:])
     rel = np.full(n, np.nan)
+    idx = np.flatnonzero(method != NOT_FOUND)
+    if compiled:
+        from ._fast import quality_misfit
+
+        rel[idx] = quality_misfit(np.ascontiguousarray(frames), s.bg64,
+                                  np.asarray(s.gains, np.float64), s.sign, s.threshold, idx,
+                                  np.ascontiguousarray(centre, np.float64),
+                                  np.ascontiguousarray(contrast, np.float64), r, RAMP)
+    else:
+        rel[idx] = _misfit(frames, s, idx, centre, contrast, r)
+    residual = np.maximum(contrast, s.threshold) * rel
+    base = float(np.nanmedian(rel[whole]))
+    with np.errstate(invalid="ignore"):
+        flag = (method != NOT_FOUND) & (rel > FLAG_FACTOR * base) & (rel > FLAG_FLOOR)
+        # a ball cut by the frame edge is fitted with the video's radius on fewer pixels:
+        # held to a tighter limit
+        flag |= (method == EDGE_FIT) & ((rel > EDGE_FACTOR * base) | (visible < EDGE_VISIBLE))
+    return residual, visible, flag
+
+
+def _misfit(frames: np.ndarray, s: _Searcher, idx: np.ndarray, centre: np.ndarray,
+            contrast: np.ndarray, r: float) -> np.ndarray:
+    """RMS misfit, relative to the contrast, of a disk of radius ``r`` at the found centres of
+    frames ``idx`` (NaN where no window); the reference of :func:`._fast.quality_misfit`."""
+    rel = np.full(len(idx), np.nan)
     h, w = frames.shape[1:]
     half = r + 3.0
-    for k in np.flatnonzero(method != NOT_FOUND).tolist():
+    for i, k in enumerate(idx.tolist()):
         cx, cy = centre[k]
         u0, v0 = max(int(cx - half), 0), max(int(cy - half), 0)
         u1, v1 = min(int(cx + half) + 2, w), min(int(cy + half) + 2, h)
         if u1 <= u0 or v1 <= v0:
             continue
-        img = frames[k, v0:v1, u0:u1].astype(np.float32)
-        bg = s.gains[k] * s.bg[v0:v1, u0:u1]
+        img = frames[k, v0:v1, u0:u1].astype(np.float64)
+        bg = s.gains[k] * s.bg64[v0:v1, u0:u1]
         c = max(float(contrast[k]), s.threshold)
         alpha = np.clip(s.sign * (img - bg) / c, 0.0, 1.0)
         rho = np.hypot(np.arange(u0, u1) - cx, (np.arange(v0, v1) - cy)[:, None])
@@ -85,15 +111,8 @@ def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: 
         # scales all of alpha) is not a misfit; a part of the ball missing is
         aa = float(a @ a)
         g = float(a @ m) / aa if aa > 0 else 1.0
-        rel[k] = math.sqrt(float(np.mean((g * a - m) ** 2)))
-        residual[k] = c * rel[k]
-    base = float(np.nanmedian(rel[whole]))
-    with np.errstate(invalid="ignore"):
-        flag = (method != NOT_FOUND) & (rel > FLAG_FACTOR * base) & (rel > FLAG_FLOOR)
-        # a ball cut by the frame edge is fitted with the video's radius on fewer pixels:
-        # held to a tighter limit
-        flag |= (method == EDGE_FIT) & ((rel > EDGE_FACTOR * base) | (visible < EDGE_VISIBLE))
-    return residual, visible, flag
+        rel[i] = math.sqrt(float(np.mean((g * a - m) ** 2)))
+    return rel
 
 
 def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method: np.ndarray,
