@@ -479,15 +479,16 @@ def quality_misfit(frames, bg, gains, sign, threshold, idx, centre, contrast, r,
 
 
 def warm() -> None:
-    """Compile (or load from numba's on-disk cache) every kernel here, on a tiny clip with the
-    argument types a video gives them."""
-    n, h, w = 4, 40, 48
+    """Compile (or load from numba's on-disk cache) every kernel here, through
+    :func:`.track_ball` on a tiny clip: a bright ball entering from the left edge (so the edge
+    fit runs too), with the argument types a video gives them, writable or read-only."""
+    from ._track import TrackerConfig, _track_ball
+
+    n, h, w = 12, 48, 64
     yy, xx = np.mgrid[:h, :w]
     frames = np.full((n, h, w), 40, np.uint8)
     for k in range(n):
-        frames[k][(xx - 6 - 12 * k) ** 2 + (yy - 20) ** 2 <= 36] = 200
-    bg = np.full((h, w), 40.0)
-    out, _, gains = measure_frames(frames, bg, bg, 1, 1, 12.0, gaussian_kernel())
-    idx = np.arange(n)
-    edge_fits(frames, bg, gains, 1, 12.0, idx, out[:, :2], 6.0, 0.25, gaussian_kernel())
-    quality_misfit(frames, bg, gains, 1, 12.0, idx, out[:, :2], out[:, 3], 6.0, 1.5)
+        frames[k][(xx - 4.0 * k) ** 2 + (yy - 24.0) ** 2 <= 36.0] = 200
+    _track_ball(frames, TrackerConfig(edge_model=False), None, compiled=True)
+    frames.setflags(write=False)  # numba compiles read-only arrays (a memory map) separately
+    _track_ball(frames, TrackerConfig(edge_model=False), None, compiled=True)

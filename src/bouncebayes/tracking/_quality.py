@@ -71,9 +71,10 @@ def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: 
         from ._fast import quality_misfit
 
         rel[idx] = quality_misfit(np.ascontiguousarray(frames), s.bg64,
-                                  np.asarray(s.gains, np.float64), s.sign, s.threshold, idx,
+                                  np.asarray(s.gains, np.float64), int(s.sign),
+                                  float(s.threshold), idx.astype(np.int64),
                                   np.ascontiguousarray(centre, np.float64),
-                                  np.ascontiguousarray(contrast, np.float64), r, RAMP)
+                                  np.ascontiguousarray(contrast, np.float64), float(r), RAMP)
     else:
         rel[idx] = _misfit(frames, s, idx, centre, contrast, r)
     residual = np.maximum(contrast, s.threshold) * rel

@@ -183,13 +183,16 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
 
         frames = np.ascontiguousarray(frames)
         kern = _fast.gaussian_kernel()
-        raw, border, gains = _fast.measure_frames(frames, state.bg64, state.bg_small, state.f,
-                                                  sign, threshold, kern)
+        # fixed argument types: numba compiles (and caches) one version of each kernel
+        raw, border, gains = _fast.measure_frames(frames, state.bg64, state.bg_small,
+                                                  int(state.f), int(sign), float(threshold),
+                                                  kern)
         state.gains = gains.tolist()
 
         def edge_fit(idx, centre, r_med):
-            return _fast.edge_fits(frames, state.bg64, gains, sign, threshold, idx, centre,
-                                   r_med, config.min_visible, kern)
+            return _fast.edge_fits(frames, state.bg64, gains, int(sign), float(threshold),
+                                   idx.astype(np.int64), np.ascontiguousarray(centre),
+                                   float(r_med), float(config.min_visible), kern)
     else:
         measures = [state.measure(frame) for frame in frames]
         raw = np.array([(m.cx, m.cy, m.r, m.contrast) if m else (np.nan,) * 4
