@@ -51,23 +51,32 @@ def _reflect101(p, n):
 @njit(cache=True)
 def _blur(src, kern):
     """Separable Gaussian blur with reflected borders, rows then columns (``cv2.GaussianBlur``
-    on a float64 image)."""
+    on a float64 image). Each sum runs over the taps in order, the loops over pixels inside
+    (so that they vectorise)."""
     hh, ww = src.shape
     rad = (len(kern) - 1) // 2
-    tmp = np.empty((hh, ww))
+    xi = np.empty(ww + 2 * rad, np.int64)
+    for j in range(ww + 2 * rad):
+        xi[j] = _reflect101(j - rad, ww)
+    yi = np.empty(hh + 2 * rad, np.int64)
+    for i in range(hh + 2 * rad):
+        yi[i] = _reflect101(i - rad, hh)
+    row = np.empty(ww + 2 * rad)
+    tmp = np.zeros((hh, ww))
     for i in range(hh):
-        for j in range(ww):
-            s = 0.0
-            for k in range(len(kern)):
-                s += kern[k] * src[i, _reflect101(j + k - rad, ww)]
-            tmp[i, j] = s
-    out = np.empty((hh, ww))
+        for j in range(ww + 2 * rad):
+            row[j] = src[i, xi[j]]
+        for k in range(len(kern)):
+            c = kern[k]
+            for j in range(ww):
+                tmp[i, j] += c * row[j + k]
+    out = np.zeros((hh, ww))
     for i in range(hh):
-        for j in range(ww):
-            s = 0.0
-            for k in range(len(kern)):
-                s += kern[k] * tmp[_reflect101(i + k - rad, hh), j]
-            out[i, j] = s
+        for k in range(len(kern)):
+            c = kern[k]
+            y = yi[i + k]
+            for j in range(ww):
+                out[i, j] += c * tmp[y, j]
     return out
 
 
@@ -84,20 +93,30 @@ def _largest_blob(mask):
     """The largest 8-connected component of ``mask`` (ties: the first in raster order, as
     OpenCV numbers them): its mask, area, centroid and bounding-box size.
 
-    Union-find in two passes; a component's root is its smallest provisional label, which is
-    that of its first pixel in raster order."""
+    Union-find in two passes over the bounding box of the set pixels; a component's root is
+    its smallest provisional label, which is that of its first pixel in raster order."""
     hh, ww = mask.shape
-    labels = np.zeros((hh, ww), np.int64)
-    parent = np.empty(hh * ww + 1, np.int64)
-    n = 0
+    blob = np.zeros((hh, ww), np.bool_)
+    i0, i1, j0, j1 = hh, -1, ww, -1
     for i in range(hh):
         for j in range(ww):
-            if not mask[i, j]:
+            if mask[i, j]:
+                i0, i1 = min(i0, i), max(i1, i)
+                j0, j1 = min(j0, j), max(j1, j)
+    if i1 < 0:
+        return blob, 0, 0.0, 0.0, 0, 0
+    bh, bw = i1 - i0 + 1, j1 - j0 + 1
+    labels = np.zeros((bh, bw), np.int64)
+    parent = np.empty(bh * bw + 1, np.int64)
+    n = 0
+    for i in range(bh):
+        for j in range(bw):
+            if not mask[i0 + i, j0 + j]:
                 continue
             best = 0
             for di, dj in ((0, -1), (-1, -1), (-1, 0), (-1, 1)):
                 y, x = i + di, j + dj
-                if y < 0 or x < 0 or x >= ww or labels[y, x] == 0:
+                if y < 0 or x < 0 or x >= bw or labels[y, x] == 0:
                     continue
                 root = _find(parent, labels[y, x])
                 if best == 0:
@@ -118,33 +137,34 @@ def _largest_blob(mask):
     x1 = np.full(n + 1, -1, np.int64)
     y0 = np.full(n + 1, hh, np.int64)
     y1 = np.full(n + 1, -1, np.int64)
-    for i in range(hh):
-        for j in range(ww):
+    for i in range(bh):
+        for j in range(bw):
             if labels[i, j] == 0:
                 continue
             root = _find(parent, labels[i, j])
             labels[i, j] = root
             area[root] += 1
-            sx[root] += j
-            sy[root] += i
+            sx[root] += j0 + j
+            sy[root] += i0 + i
             x0[root], x1[root] = min(x0[root], j), max(x1[root], j)
             y0[root], y1[root] = min(y0[root], i), max(y1[root], i)
-    pick = 0
-    for lab in range(1, n + 1):
+    pick = 1
+    for lab in range(2, n + 1):
         if area[lab] > area[pick]:
             pick = lab
-    blob = labels == pick if pick > 0 else np.zeros((hh, ww), np.bool_)
-    if pick == 0:
-        return blob, 0, 0.0, 0.0, 0, 0
+    for i in range(bh):
+        for j in range(bw):
+            blob[i0 + i, j0 + j] = labels[i, j] == pick
     a = area[pick]
     return blob, a, sx[pick] / a, sy[pick] / a, x1[pick] - x0[pick] + 1, y1[pick] - y0[pick] + 1
 
 
 @njit(cache=True)
-def _gain(frame, bg):
-    """``_measure._gain``: median of ``frame / bg`` on a sparse grid where ``bg > 8``."""
+def _gain(frame, bg, grid):
+    """``_measure._gain``: median of ``frame / bg`` on a grid of about ``grid`` pixels where
+    ``bg > 8``."""
     h, w = frame.shape
-    step = max(1, min(h, w) // 60)
+    step = max(1, math.ceil(math.sqrt(h * w / grid)))
     buf = np.empty(((h + step - 1) // step) * ((w + step - 1) // step))
     n = 0
     for i in range(0, h, step):
@@ -153,12 +173,55 @@ def _gain(frame, bg):
             if b > 8.0:
                 buf[n] = frame[i, j] / b
                 n += 1
-    return np.median(buf[:n]) if n > 16 else 1.0
+    return _median(buf[:n]) if n > 16 else 1.0
+
+
+@njit(cache=True)
+def _select(a, k):
+    """Reorder ``a`` in place so that ``a[k]`` is its k-th smallest value, no larger value
+    before it and no smaller after it (Hoare's quickselect, median-of-three pivot)."""
+    lo, hi = 0, len(a) - 1
+    while hi > lo:
+        mid = (lo + hi) // 2
+        if a[mid] < a[lo]:
+            a[mid], a[lo] = a[lo], a[mid]
+        if a[hi] < a[lo]:
+            a[hi], a[lo] = a[lo], a[hi]
+        if a[hi] < a[mid]:
+            a[hi], a[mid] = a[mid], a[hi]
+        pivot = a[mid]
+        i, j = lo, hi
+        while i <= j:
+            while a[i] < pivot:
+                i += 1
+            while a[j] > pivot:
+                j -= 1
+            if i <= j:
+                a[i], a[j] = a[j], a[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+    return a[k]
 
 
 @njit(cache=True)
 def _median(a):
-    return np.median(a)
+    """``np.median`` of a 1-D scratch array (reordered): the mean of the middle two values for
+    an even length."""
+    n = len(a)
+    k = (n - 1) // 2
+    lo = _select(a, k)
+    if n % 2:
+        return lo
+    hi = a[k + 1]
+    for i in range(k + 2, n):
+        hi = min(hi, a[i])
+    return (lo + hi) / 2
 
 
 @njit(cache=True)
@@ -326,7 +389,7 @@ def _coarse(frame, bg_small, f, gain, sign, threshold):
 
 
 @njit(cache=True)
-def measure_frames(frames, bg, bg_small, f, sign, threshold, kern):
+def measure_frames(frames, bg, bg_small, f, sign, threshold, kern, grid):
     """``_Searcher.measure`` on every frame in turn: ``(n, 4)`` centre x, y, coverage radius,
     rim contrast (NaN where not found), ``border`` and ``gains`` per frame."""
     n = frames.shape[0]
@@ -335,7 +398,7 @@ def measure_frames(frames, bg, bg_small, f, sign, threshold, kern):
     gains = np.empty(n)
     for k in range(n):
         frame = frames[k]
-        gain = _gain(frame, bg)
+        gain = _gain(frame, bg, grid)
         gains[k] = gain
         ok = False
         cx = cy = r = con = 0.0
@@ -371,7 +434,7 @@ def _disk_step(alpha, u0, v0, cx, cy, r, width):
         dy = (v0 + i) - cy
         for j in range(ww):
             dx = (u0 + j) - cx
-            rho = max(math.hypot(dx, dy), 1e-9)
+            rho = max(math.sqrt(dx * dx + dy * dy), 1e-9)
             ramp = (r - rho) / width + 0.5
             if ramp > 0 and ramp < 1:
                 res = alpha[i, j] - ramp

@@ -14,10 +14,14 @@ METHOD_NAMES = {NOT_FOUND: "not found", CENTROID: "coverage centroid",
                 EDGE_FIT: "disk fit at the frame edge"}
 
 
+GAIN_GRID = 2000  # pixels in the grid of the frame's gain (whatever the frame's size)
+
+
 def _gain(frame: np.ndarray, bg: np.ndarray) -> float:
     """Frame brightness relative to the background (lamp flicker at 100/120 Hz), from a sparse
-    grid of pixels: the ball covers too few of them to matter."""
-    step = max(1, min(frame.shape) // 60)
+    grid of about ``GAIN_GRID`` pixels: the ball covers too few of them to matter, and the
+    median of 2000 ratios is within 0.1 % (noise 3 grey levels on 100)."""
+    step = max(1, math.ceil(math.sqrt(frame.size / GAIN_GRID)))
     f, b = frame[::step, ::step], bg[::step, ::step]
     ok = b > 8.0
     return float(np.median(f[ok] / b[ok].astype(np.float64))) if ok.sum() > 16 else 1.0
@@ -238,7 +242,7 @@ def _edge_fit(frame, s: _Searcher, gain: float, c0, r: float, min_visible: float
 def _disk_step(alpha, x, y, c, r, width) -> np.ndarray | None:
     """One Gauss-Newton step of the centre of a disk with a linear edge ramp ``width`` wide."""
     dx, dy = x - c[0], y - c[1]
-    rho = np.maximum(np.hypot(dx, dy), 1e-9)
+    rho = np.maximum(np.sqrt(dx * dx + dy * dy), 1e-9)
     ramp = (r - rho) / width + 0.5
     on = (ramp > 0) & (ramp < 1)
     res = (alpha - np.clip(ramp, 0.0, 1.0))[on]

@@ -45,11 +45,15 @@ def visible_fraction(centre: np.ndarray, r: float, shape: tuple[int, int]) -> np
     """Fraction of each disk (centres ``(n, 2)``, radius ``r`` px) inside the frame; NaN where
     the centre is NaN."""
     h, w = shape
-    pts = centre[:, None, :] + r * _DISK[None, :, :]
+    out = np.where(np.isnan(centre[:, 0]), np.nan, 1.0)
+    # only disks that reach the frame's edge are sampled (the others are wholly inside)
+    cut = np.flatnonzero((centre[:, 0] - r < -0.5) | (centre[:, 0] + r > w - 0.5)
+                         | (centre[:, 1] - r < -0.5) | (centre[:, 1] + r > h - 0.5))
+    pts = centre[cut, None, :] + r * _DISK[None, :, :]
     inside = ((pts[..., 0] >= -0.5) & (pts[..., 0] <= w - 0.5)
               & (pts[..., 1] >= -0.5) & (pts[..., 1] <= h - 0.5))
-    out = inside.mean(axis=1)
-    return np.where(np.isnan(centre[:, 0]), np.nan, out)
+    out[cut] = inside.mean(axis=1)
+    return out
 
 
 def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: np.ndarray,

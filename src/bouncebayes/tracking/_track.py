@@ -11,7 +11,7 @@ import numpy as np
 
 from .._validate import check_choice, check_scalar
 from ._edge import RadiusFit
-from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _edge_fit, _gain, _Searcher
+from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import fit_ball_radius, frame_quality
 
 Polarity = Literal["auto", "bright", "dark"]
@@ -186,7 +186,7 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
         # fixed argument types: numba compiles (and caches) one version of each kernel
         raw, border, gains = _fast.measure_frames(frames, state.bg64, state.bg_small,
                                                   int(state.f), int(sign), float(threshold),
-                                                  kern)
+                                                  kern, GAIN_GRID)
         state.gains = gains.tolist()
 
         def edge_fit(idx, centre, r_med):
