@@ -8,7 +8,7 @@ out from the video's (more than ``FLAG_FACTOR`` times the median, and more than 
 of the contrast) is flagged: part of the ball is missing from its coverage (an unlit rim
 against a lit band, a contact shadow, an occluder), so its centroid is pulled off the centre.
 A ball cut by the frame edge is flagged at ``EDGE_FACTOR`` times the median, or where less than
-``EDGE_VISIBLE`` of it is in view. Costs ~20 us per frame.
+``EDGE_VISIBLE`` of it is in view. The misfit is compiled (:func:`._fast.quality_misfit`).
 
 :func:`fit_ball_radius` picks up to ``MAX_FRAMES`` trusted frames spread over the video, with
 the ball wholly in view, and runs the edge model of :mod:`._edge` on them.
