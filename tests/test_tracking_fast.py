@@ -103,3 +103,18 @@ def test_the_largest_blob_is_opencvs(seed):
     assert (area, bw, bh) == (stats[i, cv2.CC_STAT_AREA], stats[i, cv2.CC_STAT_WIDTH],
                               stats[i, cv2.CC_STAT_HEIGHT])
     assert (cx, cy) == (cents[i][0], cents[i][1])
+
+
+def test_warmup_compiles_every_version_a_video_needs():
+    # `bouncebayes warmup` runs _fast.warm(): afterwards a video -- read-only frames, integer
+    # settings where floats are expected -- must not compile anything on the user's run
+    from bouncebayes.tracking import _fast, track_ball
+
+    _fast.warm()
+    kernels = (_fast.measure_frames, _fast.edge_fits, _fast.quality_misfit)
+    compiled = [len(k.signatures) for k in kernels]
+    frames = render(Scene(n_frames=60), Bounce(x_contact=0.02))
+    frames.setflags(write=False)
+    track = track_ball(frames, config=TrackerConfig(edge_model=False, min_contrast=12))
+    assert (track.method == EDGE_FIT).any()  # the edge fits ran
+    assert [len(k.signatures) for k in kernels] == compiled
