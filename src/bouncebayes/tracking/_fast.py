@@ -7,9 +7,9 @@ compares both on rendered clips: same frames found, same methods and flags, cent
 the frame size; here a frame costs its arithmetic only (docs/tracking.md, speed).
 
 Written by hand, not with OpenCV, because numba cannot call OpenCV: the 8-connected component
-labelling (``cv2.connectedComponentsWithStats``), the Gaussian blur with reflected borders
-(``cv2.GaussianBlur``) and the block average (``cv2.resize`` with ``INTER_AREA``) are
-re-implemented here on the small windows the search looks at. The frame-to-frame search is
+labelling (``cv2.connectedComponentsWithStats``) and the Gaussian blur with reflected borders
+(``cv2.GaussianBlur``) are re-implemented here, on the small windows the search looks at (the
+tests compare them with OpenCV's). The frame-to-frame search is
 sequential in time (each frame's window is predicted from the last two hits), so it is one
 compiled loop over the frames.
 
