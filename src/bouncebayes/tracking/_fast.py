@@ -49,10 +49,11 @@ def _reflect101(p, n):
 
 
 @njit(cache=True)
-def _blur(src, kern):
+def _blur(src, kern, rows):
     """Separable Gaussian blur with reflected borders, rows then columns (``cv2.GaussianBlur``
     on a float64 image). Each sum runs over the taps in order, the loops over pixels inside
-    (so that they vectorise)."""
+    (so that they vectorise); rows of ``src`` not marked in ``rows`` are zero, and skipped
+    (their terms are zero)."""
     hh, ww = src.shape
     rad = (len(kern) - 1) // 2
     xi = np.empty(ww + 2 * rad, np.int64)
@@ -64,6 +65,8 @@ def _blur(src, kern):
     row = np.empty(ww + 2 * rad)
     tmp = np.zeros((hh, ww))
     for i in range(hh):
+        if not rows[i]:
+            continue
         for j in range(ww + 2 * rad):
             row[j] = src[i, xi[j]]
         for k in range(len(kern)):
@@ -75,6 +78,8 @@ def _blur(src, kern):
         for k in range(len(kern)):
             c = kern[k]
             y = yi[i + k]
+            if not rows[y]:
+                continue
             for j in range(ww):
                 out[i, j] += c * tmp[y, j]
     return out
@@ -288,12 +293,14 @@ def _coverage(img, bgw, blob, u0, v0, sign, threshold, cx, cy, r, shadow, kern, 
     if shadow and na >= 8:
         ratio = np.zeros((hh, ww))
         weight = np.zeros((hh, ww))
+        rows = np.zeros(hh, np.bool_)
         for i in range(hh):
             for j in range(ww):
                 if rho2[i, j] >= lo and rho2[i, j] <= hi:
                     ratio[i, j] = img[i, j] / max(bgw[i, j], 1.0)
                     weight[i, j] = 1.0
-        num, den = _blur(ratio, kern), _blur(weight, kern)
+                    rows[i] = True
+        num, den = _blur(ratio, kern, rows), _blur(weight, kern, rows)
         bg = np.empty((hh, ww))
         for i in range(hh):
             for j in range(ww):
@@ -509,6 +516,9 @@ def quality_misfit(frames, bg, gains, sign, threshold, idx, centre, contrast, r,
     rel = np.full(len(idx), np.nan)
     h, w = frames.shape[1], frames.shape[2]
     half = r + 3.0
+    side = 2 * int(half) + 6  # > the window's rows and columns
+    av = np.empty(side * side)
+    mv = np.empty(side * side)
     for n in range(len(idx)):
         k = idx[n]
         cx, cy = centre[k, 0], centre[k, 1]
@@ -517,26 +527,24 @@ def quality_misfit(frames, bg, gains, sign, threshold, idx, centre, contrast, r,
         if u1 <= u0 or v1 <= v0:
             continue
         c = max(contrast[k], threshold)
-        aa = am = 0.0
+        g = gains[k]
         count = 0
+        aa = am = 0.0
         for i in range(v0, v1):
+            dy2 = (i - cy) ** 2
             for j in range(u0, u1):
-                rho = math.hypot(j - cx, i - cy)
+                rho = math.sqrt((j - cx) ** 2 + dy2)
                 if rho <= half:
-                    a = min(max(sign * (frames[k, i, j] - gains[k] * bg[i, j]) / c, 0.0), 1.0)
+                    a = min(max(sign * (frames[k, i, j] - g * bg[i, j]) / c, 0.0), 1.0)
                     m = min(max((r - rho) / ramp + 0.5, 0.0), 1.0)
+                    av[count], mv[count] = a, m
                     aa += a * a
                     am += a * m
                     count += 1
-        g = am / aa if aa > 0 else 1.0
+        scale = am / aa if aa > 0 else 1.0
         ss = 0.0
-        for i in range(v0, v1):
-            for j in range(u0, u1):
-                rho = math.hypot(j - cx, i - cy)
-                if rho <= half:
-                    a = min(max(sign * (frames[k, i, j] - gains[k] * bg[i, j]) / c, 0.0), 1.0)
-                    m = min(max((r - rho) / ramp + 0.5, 0.0), 1.0)
-                    ss += (g * a - m) ** 2
+        for q in range(count):
+            ss += (scale * av[q] - mv[q]) ** 2
         rel[n] = math.sqrt(ss / count) if count > 0 else np.nan
     return rel
 

@@ -108,7 +108,7 @@ def _misfit(frames: np.ndarray, s: _Searcher, idx: np.ndarray, centre: np.ndarra
         bg = s.gains[k] * s.bg64[v0:v1, u0:u1]
         c = max(float(contrast[k]), s.threshold)
         alpha = np.clip(s.sign * (img - bg) / c, 0.0, 1.0)
-        rho = np.hypot(np.arange(u0, u1) - cx, (np.arange(v0, v1) - cy)[:, None])
+        rho = np.sqrt((np.arange(u0, u1) - cx) ** 2 + ((np.arange(v0, v1) - cy) ** 2)[:, None])
         model = np.clip((r - rho) / RAMP + 0.5, 0.0, 1.0)
         near = rho <= half
         a, m = alpha[near], model[near]
