@@ -378,6 +378,10 @@ def warmup(log: Callable[[str], None] = print) -> float:
             log(f"compiling: {likelihood} likelihood, {sampler} sampler ...")
             _warm_once(demo, Path(tmp) / f"{likelihood}-{sampler}", likelihood, sampler,
                        configs[sampler])
+    log("compiling: video tracking ...")
+    from .tracking._fast import warm as warm_tracking
+
+    warm_tracking()
     return time.perf_counter() - start
 
 

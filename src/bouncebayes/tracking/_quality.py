@@ -8,7 +8,7 @@ out from the video's (more than ``FLAG_FACTOR`` times the median, and more than 
 of the contrast) is flagged: part of the ball is missing from its coverage (an unlit rim
 against a lit band, a contact shadow, an occluder), so its centroid is pulled off the centre.
 A ball cut by the frame edge is flagged at ``EDGE_FACTOR`` times the median, or where less than
-``EDGE_VISIBLE`` of it is in view. Costs ~20 us per frame.
+``EDGE_VISIBLE`` of it is in view. The misfit is compiled (:func:`._fast.quality_misfit`).
 
 :func:`fit_ball_radius` picks up to ``MAX_FRAMES`` trusted frames spread over the video, with
 the ball wholly in view, and runs the edge model of :mod:`._edge` on them.
@@ -45,17 +45,22 @@ def visible_fraction(centre: np.ndarray, r: float, shape: tuple[int, int]) -> np
     """Fraction of each disk (centres ``(n, 2)``, radius ``r`` px) inside the frame; NaN where
     the centre is NaN."""
     h, w = shape
-    pts = centre[:, None, :] + r * _DISK[None, :, :]
+    out = np.where(np.isnan(centre[:, 0]), np.nan, 1.0)
+    # only disks that reach the frame's edge are sampled (the others are wholly inside)
+    cut = np.flatnonzero((centre[:, 0] - r < -0.5) | (centre[:, 0] + r > w - 0.5)
+                         | (centre[:, 1] - r < -0.5) | (centre[:, 1] + r > h - 0.5))
+    pts = centre[cut, None, :] + r * _DISK[None, :, :]
     inside = ((pts[..., 0] >= -0.5) & (pts[..., 0] <= w - 0.5)
               & (pts[..., 1] >= -0.5) & (pts[..., 1] <= h - 0.5))
-    out = inside.mean(axis=1)
-    return np.where(np.isnan(centre[:, 0]), np.nan, out)
+    out[cut] = inside.mean(axis=1)
+    return out
 
 
 def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: np.ndarray,
-                  method: np.ndarray, contrast: np.ndarray
+                  method: np.ndarray, contrast: np.ndarray, *, compiled: bool = True
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``residual`` (grey levels), ``visible`` (0-1) and ``flag`` of every frame."""
+    """``residual`` (grey levels), ``visible`` (0-1) and ``flag`` of every frame; ``compiled``:
+    the misfit by :func:`._fast.quality_misfit`, else by the Python loop (the reference)."""
     n = len(frames)
     residual = np.full(n, np.nan)
     flag = np.zeros(n, bool)
@@ -65,28 +70,18 @@ def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: 
     r = float(np.median(radius[whole]))
     visible = visible_fraction(centre, r, frames.shape[1:])
     rel = np.full(n, np.nan)
-    h, w = frames.shape[1:]
-    half = r + 3.0
-    for k in np.flatnonzero(method != NOT_FOUND).tolist():
-        cx, cy = centre[k]
-        u0, v0 = max(int(cx - half), 0), max(int(cy - half), 0)
-        u1, v1 = min(int(cx + half) + 2, w), min(int(cy + half) + 2, h)
-        if u1 <= u0 or v1 <= v0:
-            continue
-        img = frames[k, v0:v1, u0:u1].astype(np.float32)
-        bg = s.gains[k] * s.bg[v0:v1, u0:u1]
-        c = max(float(contrast[k]), s.threshold)
-        alpha = np.clip(s.sign * (img - bg) / c, 0.0, 1.0)
-        rho = np.hypot(np.arange(u0, u1) - cx, (np.arange(v0, v1) - cy)[:, None])
-        model = np.clip((r - rho) / RAMP + 0.5, 0.0, 1.0)
-        near = rho <= half
-        a, m = alpha[near], model[near]
-        # the coverage scaled to best match the disk: an error of the rim contrast (which
-        # scales all of alpha) is not a misfit; a part of the ball missing is
-        aa = float(a @ a)
-        g = float(a @ m) / aa if aa > 0 else 1.0
-        rel[k] = math.sqrt(float(np.mean((g * a - m) ** 2)))
-        residual[k] = c * rel[k]
+    idx = np.flatnonzero(method != NOT_FOUND)
+    if compiled:
+        from ._fast import quality_misfit
+
+        rel[idx] = quality_misfit(np.ascontiguousarray(frames), s.bg64,
+                                  np.asarray(s.gains, np.float64), int(s.sign),
+                                  float(s.threshold), idx.astype(np.int64),
+                                  np.ascontiguousarray(centre, np.float64),
+                                  np.ascontiguousarray(contrast, np.float64), float(r), RAMP)
+    else:
+        rel[idx] = _misfit(frames, s, idx, centre, contrast, r)
+    residual = np.maximum(contrast, s.threshold) * rel
     base = float(np.nanmedian(rel[whole]))
     with np.errstate(invalid="ignore"):
         flag = (method != NOT_FOUND) & (rel > FLAG_FACTOR * base) & (rel > FLAG_FLOOR)
@@ -94,6 +89,35 @@ def frame_quality(frames: np.ndarray, s: _Searcher, centre: np.ndarray, radius: 
         # held to a tighter limit
         flag |= (method == EDGE_FIT) & ((rel > EDGE_FACTOR * base) | (visible < EDGE_VISIBLE))
     return residual, visible, flag
+
+
+def _misfit(frames: np.ndarray, s: _Searcher, idx: np.ndarray, centre: np.ndarray,
+            contrast: np.ndarray, r: float) -> np.ndarray:
+    """RMS misfit, relative to the contrast, of a disk of radius ``r`` at the found centres of
+    frames ``idx`` (NaN where no window); the reference of :func:`._fast.quality_misfit`."""
+    rel = np.full(len(idx), np.nan)
+    h, w = frames.shape[1:]
+    half = r + 3.0
+    for i, k in enumerate(idx.tolist()):
+        cx, cy = centre[k]
+        u0, v0 = max(int(cx - half), 0), max(int(cy - half), 0)
+        u1, v1 = min(int(cx + half) + 2, w), min(int(cy + half) + 2, h)
+        if u1 <= u0 or v1 <= v0:
+            continue
+        img = frames[k, v0:v1, u0:u1].astype(np.float64)
+        bg = s.gains[k] * s.bg64[v0:v1, u0:u1]
+        c = max(float(contrast[k]), s.threshold)
+        alpha = np.clip(s.sign * (img - bg) / c, 0.0, 1.0)
+        rho = np.sqrt((np.arange(u0, u1) - cx) ** 2 + ((np.arange(v0, v1) - cy) ** 2)[:, None])
+        model = np.clip((r - rho) / RAMP + 0.5, 0.0, 1.0)
+        near = rho <= half
+        a, m = alpha[near], model[near]
+        # the coverage scaled to best match the disk: an error of the rim contrast (which
+        # scales all of alpha) is not a misfit; a part of the ball missing is
+        aa = float(a @ a)
+        g = float(a @ m) / aa if aa > 0 else 1.0
+        rel[i] = math.sqrt(float(np.mean((g * a - m) ** 2)))
+    return rel
 
 
 def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method: np.ndarray,

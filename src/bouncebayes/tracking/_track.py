@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal, get_args
 
@@ -12,7 +11,7 @@ import numpy as np
 
 from .._validate import check_choice, check_scalar
 from ._edge import RadiusFit
-from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _edge_fit, _gain, _Measure, _Searcher
+from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import fit_ball_radius, frame_quality
 
 Polarity = Literal["auto", "bright", "dark"]
@@ -167,15 +166,46 @@ def track_ball(frames: np.ndarray, *, config: TrackerConfig = TrackerConfig(),
         background: an image of the scene without the ball ``(height, width)``; default: the
             per-pixel median of ``config.background_frames`` frames.
     """
+    return _track_ball(frames, config, background, compiled=True)
+
+
+def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) -> Track:
+    """:func:`track_ball`; ``compiled``: the per-frame path of :mod:`._fast`, else the Python
+    path of :mod:`._measure` (the reference it is tested against, and the benchmark's)."""
     frames = _check_frames(frames)
     bg = background_model(frames, config.background_frames) if background is None else \
         _check_background(background, frames.shape[1:])
     noise, sign = _noise_and_polarity(frames, bg, config)
     threshold = max(config.threshold_sigma * noise, config.min_contrast)
     state = _Searcher(bg, sign, threshold)
-    raw = [state.measure(frame) for frame in frames]
-    centre, radius, method, contrast = _finish(frames, state, raw, config)
-    residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast)
+    if compiled:
+        from . import _fast
+
+        frames = np.ascontiguousarray(frames)
+        kern = _fast.gaussian_kernel()
+        # fixed argument types: numba compiles (and caches) one version of each kernel
+        raw, border, gains = _fast.measure_frames(frames, state.bg64, state.bg_small,
+                                                  int(state.f), int(sign), float(threshold),
+                                                  kern, GAIN_GRID)
+        state.gains = gains.tolist()
+
+        def edge_fit(idx, centre, r_med):
+            return _fast.edge_fits(frames, state.bg64, gains, int(sign), float(threshold),
+                                   idx.astype(np.int64), np.ascontiguousarray(centre),
+                                   float(r_med), float(config.min_visible), kern)
+    else:
+        measures = [state.measure(frame) for frame in frames]
+        raw = np.array([(m.cx, m.cy, m.r, m.contrast) if m else (np.nan,) * 4
+                        for m in measures]).reshape(-1, 4)
+        border = np.array([m is not None and m.border for m in measures], bool)
+
+        def edge_fit(idx, centre, r_med):
+            fits = [_edge_fit(frames[k], state, state.gains[k], centre[k], r_med,
+                              config.min_visible) for k in idx.tolist()]
+            return np.array([(np.nan, np.nan) if c is None else c for c in fits]).reshape(-1, 2)
+    centre, radius, method, contrast = _finish(raw, border, edge_fit, config)
+    residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
+                                            compiled=compiled)
     fit, offset = fit_ball_radius(frames, state, centre, method, flag, radius) if \
         config.edge_model else (None, (0.0, 0.0))
     centre[method == CENTROID] += offset
@@ -221,17 +251,15 @@ def _noise_and_polarity(frames, bg, config) -> tuple[float, int]:
 
 
 
-def _finish(frames, s: _Searcher, raw: Sequence[_Measure | None], config: TrackerConfig):
-    """Arrays from the per-frame measures; edge fits for balls cut by the frame edge; checks."""
-    n = len(raw)
-    centre = np.full((n, 2), np.nan)
-    radius = np.full(n, np.nan)
-    method = np.zeros(n, np.int8)
-    contrast = np.full(n, np.nan)
-    for k, m in enumerate(raw):
-        if m is not None:
-            centre[k], radius[k], contrast[k] = (m.cx, m.cy), m.r, m.contrast
-            method[k] = EDGE_FIT if m.border else CENTROID
+def _finish(raw: np.ndarray, border: np.ndarray, edge_fit, config: TrackerConfig):
+    """Arrays from the per-frame measures (``raw``: centre x, y, coverage radius, contrast;
+    NaN where not found); edge fits (``edge_fit(idx, centre, radius)``: centres, NaN where
+    refused) for balls cut by the frame edge; checks."""
+    found = ~np.isnan(raw[:, 0])
+    centre = raw[:, :2].copy()
+    radius = raw[:, 2].copy()
+    contrast = raw[:, 3].copy()
+    method = np.where(found, np.where(border, EDGE_FIT, CENTROID), NOT_FOUND).astype(np.int8)
     whole = method == CENTROID
     if not whole.any():
         method[:] = NOT_FOUND
@@ -239,12 +267,12 @@ def _finish(frames, s: _Searcher, raw: Sequence[_Measure | None], config: Tracke
         r_med = float(np.median(radius[whole]))
         bad = whole & (np.abs(radius / r_med - 1.0) > config.max_radius_change)
         method[bad] = NOT_FOUND
-        for k in np.flatnonzero(method == EDGE_FIT).tolist():
-            fit = _edge_fit(frames[k], s, s.gains[k], centre[k], r_med, config.min_visible)
-            if fit is None:
-                method[k] = NOT_FOUND
-            else:
-                centre[k], radius[k] = fit, r_med
+        idx = np.flatnonzero(method == EDGE_FIT)
+        if len(idx):
+            fits = edge_fit(idx, centre, r_med)
+            refused = np.isnan(fits[:, 0])
+            method[idx[refused]] = NOT_FOUND
+            centre[idx[~refused]], radius[idx[~refused]] = fits[~refused], r_med
     lost = method == NOT_FOUND
     centre[lost], radius[lost] = np.nan, np.nan
     return centre, radius, method, contrast
