@@ -589,3 +589,26 @@ def test_the_blurred_limb_is_the_gaussian_moment(z):
     expected, _ = quad(lambda t: math.sqrt(max(z + t, 0.0)) * math.exp(-t * t / 2)
                        / math.sqrt(2 * math.pi), -z, 40.0)
     assert float(np.interp(z, zs, g)) == pytest.approx(expected, rel=1e-5, abs=1e-9)
+
+
+def test_the_compiled_edge_design_is_the_numpy_one():
+    from bouncebayes.tracking._edge import RIM_ORDER, _design_numpy, _Pixels, _sqrt_table
+    from bouncebayes.tracking._edge_kernel import design
+
+    # independent: the NumPy reference implementation of the same design matrix (_edge.py),
+    # two frames, the blur, exposure and smear across the range the fits use
+    rng = np.random.default_rng(3)
+    n = 500
+    px = _Pixels(rng.uniform(0, 40, n), rng.uniform(0, 40, n), rng.uniform(0, 255, n),
+                 rng.uniform(0, 255, n), np.full(n, 20.3), np.full(n, 19.7), np.full(n, 0.6),
+                 np.full(n, 0.8), np.full(n, 1.7), rng.integers(0, 2, n), 2,
+                 rng.uniform(0, 1, n))
+    zt, gt = _sqrt_table()
+    for q in ((10.0, 0.7, 0.5), (5.0, 1.5, 0.0), (15.0, 0.05, 1.0)):
+        a, step = _design_numpy(np.array(q), px)
+        got_a, got_y = design(*q, px.u, px.v, px.cx, px.cy, px.dir_u, px.dir_v, px.speed,
+                              px.frame, px.n_frames, px.weight, px.grey, px.bg, float(zt[0]),
+                              float(zt[1] - zt[0]), gt, RIM_ORDER)
+        np.testing.assert_allclose(got_a, a * px.weight[:, None], rtol=0, atol=1e-10)
+        np.testing.assert_allclose(got_y, (px.grey - px.bg * (1 - step)) * px.weight,
+                                   rtol=0, atol=1e-9)

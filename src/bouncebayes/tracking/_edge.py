@@ -109,8 +109,9 @@ def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
     return z, g
 
 
-def _design(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
-    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step."""
+def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
+    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step: the
+    NumPy reference of the compiled :func:`._edge_kernel.design` (the tests compare them)."""
     from scipy.special import ndtr
 
     r, sigma, exposure = q
@@ -160,9 +161,12 @@ def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
         n = px.u.size
         px = px._replace(cx=np.full(n, q[0]), cy=np.full(n, q[1]))
         q = q[2:]
-    a, step = _design(q, px)
-    a = a * px.weight[:, None]
-    y = (px.grey - px.bg * (1.0 - step)) * px.weight
+    from ._edge_kernel import design
+
+    zt, gt = _sqrt_table()
+    a, y = design(float(q[0]), float(q[1]), float(q[2]), px.u, px.v, px.cx, px.cy, px.dir_u,
+                  px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey, px.bg,
+                  float(zt[0]), float(zt[1] - zt[0]), gt, RIM_ORDER)
     # normal equations with a small ridge: ~10x faster than an SVD, and the columns are
     # O(1) functions of the pixels (a near-degenerate column gets a coefficient ~0)
     ata = a.T @ a
