@@ -44,7 +44,8 @@ import numpy as np
 
 RIM_ORDER = 4      # harmonics of the rim level in the polar angle
 INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
-MAX_FRAMES = 9     # frames fitted per video
+MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
+FIRST_FRAMES = 5   # of which fitted with blur and exposure free
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
 
 
@@ -292,18 +293,27 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
                centres: np.ndarray, velocities: np.ndarray, r0: float) -> RadiusFit | None:
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
-    ``velocities``: px per frame): every frame fitted alone, then again with the blur and
-    exposure held at their medians; the median radius and its standard error. None if fewer
-    than 3 frames could be fitted."""
+    ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
+    frame with the blur and exposure held at those fits' medians; the median radius and its
+    standard error. None if fewer than 3 frames could be fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
-    first = [fit_edge(*a, r0) for a in args]
-    ok = [f for f in first if f is not None]
+    # the free fits (five parameters, ~3/4 of the cost) on up to FIRST_FRAMES of the frames,
+    # spread: they only set the shared blur and exposure and the starting radius
+    pick = np.unique(np.linspace(0, len(args) - 1, min(FIRST_FRAMES, len(args))).round())
+    first = {int(i): fit_edge(*args[int(i)], r0) for i in pick}
+    ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
     blur = (float(np.median([f.sigma for f in ok])), float(np.median([f.exposure for f in ok])))
     r1 = float(np.median([f.r for f in ok]))
-    second = [None if f is None else fit_edge(img, bg, (f.cx, f.cy), v, r1, blur=blur)
-              for (img, bg, _, v), f in zip(args, first, strict=True)]
+    second: list[EdgeFit | None] = []
+    for i, (img, bg, c, v) in enumerate(args):
+        f = first.get(i)
+        if i in first and f is None:  # its free fit failed: a frame the model cannot follow
+            second.append(None)
+        else:
+            second.append(fit_edge(img, bg, c if f is None else (f.cx, f.cy), v, r1,
+                                   blur=blur))
     fits = [f for f in second if f is not None]
     if len(fits) < 3:
         return None
