@@ -70,7 +70,8 @@ class RadiusFit(NamedTuple):
     """The ball's radius from the edge model: ``radius`` (px) and its standard error
     ``radius_se`` (px, from the scatter of single-frame radii with the shared blur and
     shading held), blur ``sigma`` (px), ``exposure`` (fraction of the frame interval), RMS
-    residual (grey levels), and the frames fitted."""
+    residual (grey levels), and the frames fitted; ``centre_sd``: the tracked centres' per-frame
+    standard deviation (px, per coordinate), set by :func:`._quality.fit_ball_radius`."""
 
     radius: float
     radius_se: float
@@ -79,6 +80,7 @@ class RadiusFit(NamedTuple):
     rms: float
     frames: tuple[int, ...]
     centres: np.ndarray    # the edge fits' centres of ``frames`` (px)
+    centre_sd: float = math.nan  # per-frame SD of the tracked centres, per coordinate (px)
 
 
 class _Pixels(NamedTuple):

@@ -299,6 +299,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                  "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
                  "exposure": _optional(fit.exposure, 3) if fit is not None else None,
                  "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
+                 "centre_sd_px": _optional(fit.centre_sd, 4) if fit is not None else None,
                  "warning": blur_warning(tr)},
         "ball_radius_px": _optional(tr.ball_radius, 4),
         "calibration": {"metres_per_pixel": cal.metres_per_px,
