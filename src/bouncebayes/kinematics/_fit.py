@@ -258,19 +258,7 @@ def _fit_side(traj: Trajectory, idx: np.ndarray, t_ref: float, cfg: FitConfig,
         note = (f"{dropped} more sample(s) next to the impact left out (off the flight beyond "
                 f"p = {cfg.p_min:g}: in contact?)")
         flight = replace(flight, note=note if flight.note is None else f"{flight.note}; {note}")
-    return _floored(flight, None if cfg.position_noise is not None else traj.position_sd)
-
-
-def _floored(flight: Flight, floor: float | None) -> Flight:
-    """The flight with the tracker's stated per-frame position SD ``floor`` (m) as the floor
-    of its noise: where the residuals scatter less, the covariance is scaled up to it and the
-    flight carries it (``noise_floor``) for the residual tests. A tracker's centre errors are
-    correlated along the track (the texture under the ball, the codec: a smooth bias, not white
-    noise), so the residuals about the fitted flight understate them and their smooth part
-    would read as a misfit."""
-    if floor is None or floor <= 0 or not 0 < flight.s2 < floor**2:
-        return flight
-    return replace(flight, cov=flight.cov * (floor**2 / flight.s2), noise_floor=floor)
+    return flight
 
 
 def _fit_bounce(traj: Trajectory, split: _Split, cfg: FitConfig, allowance: float, k: int,
@@ -287,12 +275,6 @@ def _fit_bounce(traj: Trajectory, split: _Split, cfg: FitConfig, allowance: floa
     notes = [*traj.notes, *(f"{side}: {f.note}" for side, f in (("flight before", pre),
                                                                 ("flight after", post))
                             if f.note)]
-    floored = [side for side, f in (("before", pre), ("after", post)) if f.noise_floor]
-    if floored and traj.position_sd is not None:
-        notes.append(f"positions: the tracker's stated centre SD ({traj.position_sd * 1e3:.3g} "
-                     f"mm per coordinate) exceeds the residual scatter {' and '.join(floored)} "
-                     "the impact and is used as its noise (standard errors, residual tests): "
-                     "the tracked centres' errors are correlated along the track")
     return _kinematics(traj, obs, pre, post, t_ref, cfg, name, k, n, tuple(notes), gates)
 
 

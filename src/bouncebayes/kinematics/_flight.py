@@ -41,7 +41,6 @@ class Flight:
     tau: np.ndarray | None = None  #: sample times from the reference time
     design: np.ndarray | None = None  #: d(residuals, raveled)/d(parameters); None: quadratic
     note: str | None = None  #: why a requested drag fit fell back to constant acceleration
-    noise_floor: float | None = None  #: the stated position SD (m) used as the noise, if any
 
     @property
     def d(self) -> int:

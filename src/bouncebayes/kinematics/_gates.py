@@ -52,7 +52,7 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
     if cfg.position_noise is not None:
         _stated_noise(name, pre, post, cfg, out)
     for side, flight in (("before", pre), ("after", post)):
-        p = trend_test(flight, cfg.position_noise or flight.noise_floor)
+        p = trend_test(flight, cfg.position_noise)
         out[f"p_trend_{side}"] = p
         hint = (f" [{flight.note}]" if flight.note else "") + (
             "" if cfg.fit_drag else "; for a light ball try `drag = \"quadratic\"`")
@@ -62,18 +62,14 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
                                         f"{_WHY_MISFIT}{hint}", reason="misfit")
         ratio, p = misfit_ratio(flight.residuals)
         out[f"misfit_{side}"] = ratio
-        # residuals below the tracker's stated (correlated) centre error: their smooth
-        # pattern is that error, and the trend test above bounds its size
-        if ratio > cfg.max_misfit and p < cfg.p_min and flight.noise_floor is None:
+        if ratio > cfg.max_misfit and p < cfg.p_min:
             raise TrajectoryError(name, f"the residuals {side} the impact follow a smooth "
                                         f"pattern: their variance is {ratio:.3g} times what "
                                         "their successive differences imply (white noise: 1; "
                                         f"limit {cfg.max_misfit:g}, p = {p:.2g}): {_WHY_MISFIT}"
                                         f"{hint}", reason="misfit")
     if cfg.position_noise is None and max(pre.s2, post.s2) > _EXACT**2:
-        # the residual levels, each at least the stated position SD where it was used
-        s2_pre, s2_post = (max(fl.s2, (fl.noise_floor or 0.0) ** 2) for fl in (pre, post))
-        f = s2_pre / s2_post if s2_post > 0 else math.inf
+        f = pre.s2 / post.s2 if post.s2 > 0 else math.inf
         p = float(2 * min(special.fdtrc(pre.dof, post.dof, f),
                           special.fdtr(pre.dof, post.dof, f)))
         out["p_equal_noise"] = p
