@@ -91,20 +91,3 @@ def design(r, sigma, exposure, u, v, cx, cy, dir_u, dir_v, speed, frame, n_frame
         a[i, j + 2] = out * st * w
         y[i] = (grey[i] - bg[i] * out) * w
     return a, y
-
-
-@njit(cache=True)
-def residual(r, sigma, exposure, u, v, cx, cy, dir_u, dir_v, speed, frame, n_frames, weight,
-             grey, bg, z0, dz, table, rim_order):
-    """Weighted residuals at ``(r, sigma, exposure)`` with the linear coefficients solved:
-    normal equations of :func:`design` with a small ridge (``1e-9`` of the mean diagonal,
-    plus ``1e-9``), as ``_edge._residual`` did in NumPy."""
-    a, y = design(r, sigma, exposure, u, v, cx, cy, dir_u, dir_v, speed, frame, n_frames,
-                  weight, grey, bg, z0, dz, table, rim_order)
-    ata = a.T @ a
-    m = ata.shape[0]
-    ridge = 1e-9 * (np.trace(ata) / m + 1.0)
-    for j in range(m):
-        ata[j, j] += ridge
-    beta = np.linalg.solve(ata, a.T @ y)
-    return y - a @ beta
