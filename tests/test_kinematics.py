@@ -975,3 +975,16 @@ def test_a_bad_stated_centre_error_names_the_sidecar_field(tmp_path):
     path.with_name("b.track.json").write_text('{"ball": {"centre_sd_px": -1}}', encoding="utf-8")
     with pytest.raises(InputFileError, match=r"b\.track\.json.*ball\.centre_sd_px.*>= 0"):
         read_trajectory(path)
+
+
+def test_the_correlated_error_model_is_its_dense_covariance():
+    from bouncebayes.kinematics._flight import ErrorModel
+
+    # independent: the dense matrix kron(phi^|f_i - f_j|, sd^2 I) + kron(I, diag(white)),
+    # with a gap in the frames (a flagged frame left out)
+    frames = np.array([0.0, 1, 2, 4, 5, 6, 7, 9])
+    model = ErrorModel(frames, 0.45, 2e-4, np.array([1e-8, 3e-8]))
+    corr = 0.45 ** np.abs(frames[:, None] - frames[None, :])
+    dense = np.kron(corr, 4e-8 * np.eye(2)) + np.kron(np.eye(8), np.diag([1e-8, 3e-8]))
+    v = np.random.default_rng(1).normal(size=(16, 3))
+    np.testing.assert_allclose(model.apply(v), dense @ v, rtol=1e-12, atol=0)

@@ -277,7 +277,7 @@ def _fit_bounce(traj: Trajectory, split: _Split, cfg: FitConfig, allowance: floa
     notes = [*traj.notes, *(f"{side}: {f.note}" for side, f in (("flight before", pre),
                                                                 ("flight after", post))
                             if f.note)]
-    if traj.position_sd and pre.error_cov is not None and post.error_cov is not None:
+    if traj.position_sd and pre.errors is not None and post.errors is not None:
         notes.append(f"positions: the tracker's stated centre SD ({traj.position_sd * 1e3:.3g} "
                      "mm per coordinate, correlated along the track) is in the standard errors "
                      "and the residual tests")
