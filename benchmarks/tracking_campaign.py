@@ -8,11 +8,12 @@ rebound speed's z-score against the rendered truth, with the kinematics' standar
 scale's stated relative SD (``scale_rel_sd``) in quadrature, and the z of the speed with the
 standard error alone (what a per-trial analysis that ignores the scale would claim).
 
-The kinematics' misfit gates reject a track whose residuals hold a trend (``p < 1e-4``): the
-tracked centres' errors are correlated along the track (the texture under the ball, the
-codec), and this footage has little pixel noise, so such trends are significant. Those tracks
-are reported with the gate's message and fitted again with the gates relaxed (``p_min =
-1e-9``, marked ``"gates": "relaxed"``) so that their z-scores can be shown too.
+The tracked centres' errors are correlated along the track (the texture under the ball, the
+codec) and this footage has little pixel noise; the kinematics take the tracker's stated
+per-frame centre SD (``ball.centre_sd_px`` in the record) as a correlated error
+(docs/tracking.md). A track the default gates still reject is reported with the gate's
+message and fitted again with the gates relaxed (``p_min = 1e-9``, marked ``"gates":
+"relaxed"``) so that its z-score can be shown too.
 
 ``python benchmarks/tracking_campaign.py`` writes ``benchmarks/results/tracking_campaign.json``.
 """

@@ -92,6 +92,7 @@ class TrackSidecar:
     path: str
     scale_rel_sd: float | None = None  #: relative SD of metres per pixel
     surface_angle_sd_deg: float | None = None  #: SD of the detected surface angle, deg
+    position_sd: float | None = None  #: per-frame SD of the tracked centres, m per coordinate
 
 
 def line_list(lines: Sequence[int]) -> str:
@@ -328,8 +329,9 @@ def sidecar_path(trajectory_path: str | os.PathLike) -> Path:
 def read_track_sidecar(trajectory_path: str | os.PathLike) -> TrackSidecar | None:
     """The tracker's calibration uncertainty for a trajectory file; None if no sidecar.
 
-    Reads ``calibration.relative_sd`` and ``surface.angle_sd_deg`` (each optional, a finite
-    number >= 0); other keys are ignored.
+    Reads ``calibration.relative_sd``, ``surface.angle_sd_deg`` and ``ball.centre_sd_px``
+    times ``calibration.metres_per_pixel`` (each optional, a finite number >= 0); other keys
+    are ignored.
 
     Raises:
         InputFileError: the sidecar is not JSON, not an object, or a value is not allowed.
@@ -345,8 +347,11 @@ def read_track_sidecar(trajectory_path: str | os.PathLike) -> TrackSidecar | Non
         raise InputFileError(path, f"must hold a JSON object; got {type(data).__name__}")
     values = {key: _sidecar_value(path, data, section, key)
               for section, key in (("calibration", "relative_sd"),
-                                   ("surface", "angle_sd_deg"))}
-    return TrackSidecar(os.fspath(path), values["relative_sd"], values["angle_sd_deg"])
+                                   ("surface", "angle_sd_deg"), ("ball", "centre_sd_px"),
+                                   ("calibration", "metres_per_pixel"))}
+    sd_px, mpp = values["centre_sd_px"], values["metres_per_pixel"]
+    return TrackSidecar(os.fspath(path), values["relative_sd"], values["angle_sd_deg"],
+                        None if sd_px is None or mpp is None else sd_px * mpp)
 
 
 def _sidecar_value(path: Path, data: dict, section: str, key: str) -> float | None:

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.signal import find_peaks
 
 from ._config import FitConfig
-from ._flight import Flight, fit_drag, fit_quadratic, sample_outlier_p
+from ._flight import Flight, correlated_errors, fit_drag, fit_quadratic, sample_outlier_p
 from ._gates import apply_gates
 from ._observe import Observation, observe
 from ._read import Trajectory
@@ -258,6 +258,8 @@ def _fit_side(traj: Trajectory, idx: np.ndarray, t_ref: float, cfg: FitConfig,
         note = (f"{dropped} more sample(s) next to the impact left out (off the flight beyond "
                 f"p = {cfg.p_min:g}: in contact?)")
         flight = replace(flight, note=note if flight.note is None else f"{flight.note}; {note}")
+    if cfg.position_noise is None and traj.position_sd:
+        flight = correlated_errors(flight, traj.position_sd, traj.sample_rate_hz)
     return flight
 
 
@@ -275,6 +277,10 @@ def _fit_bounce(traj: Trajectory, split: _Split, cfg: FitConfig, allowance: floa
     notes = [*traj.notes, *(f"{side}: {f.note}" for side, f in (("flight before", pre),
                                                                 ("flight after", post))
                             if f.note)]
+    if traj.position_sd and pre.errors is not None and post.errors is not None:
+        notes.append(f"positions: the tracker's stated centre SD ({traj.position_sd * 1e3:.3g} "
+                     "mm per coordinate, correlated along the track) is in the standard errors "
+                     "and the residual tests")
     return _kinematics(traj, obs, pre, post, t_ref, cfg, name, k, n, tuple(notes), gates)
 
 

@@ -26,6 +26,39 @@ _BOUND_FRACTION = 1e-3  # k within this fraction of k_max from a bound: "at the 
 
 
 @dataclass(frozen=True)
+class ErrorModel:
+    """Correlated position errors: per coordinate, the stated SD ``sd`` (m) correlated as
+    ``phi^|frames apart|`` between the samples (``frames``: their frame numbers), plus white
+    noise of variance ``white`` (``(d,)``, m^2). Coordinates are independent."""
+
+    frames: np.ndarray
+    phi: float
+    sd: float
+    white: np.ndarray
+
+    @property
+    def variance(self) -> float:
+        """Mean marginal variance per coordinate (m^2)."""
+        return self.sd**2 + float(np.mean(self.white))
+
+    def apply(self, v: np.ndarray) -> np.ndarray:
+        """``S @ v`` for ``v`` ``(n d, m)`` raveled sample by sample (``S`` the errors'
+        covariance), in O(n): the AR(1) correlation as a forward and a backward recursion
+        (``phi^|f_i - f_j|`` is the product of the steps between them), so that a long flight
+        from a fast camera never builds the ``(n d)^2`` matrix."""
+        n, d = self.frames.size, self.white.size
+        x = v.reshape(n, d, -1)
+        step = self.phi ** np.diff(self.frames)
+        fwd, bwd = x.copy(), x.copy()
+        for i in range(1, n):
+            fwd[i] += step[i - 1] * fwd[i - 1]
+        for i in range(n - 2, -1, -1):
+            bwd[i] += step[i] * bwd[i + 1]
+        out = self.sd**2 * (fwd + bwd - x) + self.white[None, :, None] * x
+        return out.reshape(v.shape)
+
+
+@dataclass(frozen=True)
 class Flight:
     """A fitted free flight: samples used, parameters, covariance, residuals (``(n, d)``)."""
 
@@ -41,6 +74,9 @@ class Flight:
     tau: np.ndarray | None = None  #: sample times from the reference time
     design: np.ndarray | None = None  #: d(residuals, raveled)/d(parameters); None: quadratic
     note: str | None = None  #: why a requested drag fit fell back to constant acceleration
+    #: the position errors' model where the tracker stated a correlated centre error
+    #: (:func:`correlated_errors`); None: white noise
+    errors: ErrorModel | None = None
 
     @property
     def d(self) -> int:
@@ -333,6 +369,38 @@ def _covariance(jac: np.ndarray, s2: float, prior_sd: np.ndarray) -> np.ndarray 
     return np.linalg.inv(scaled) / np.outer(scale, scale)
 
 
+# Largest lag-one correlation of the position errors used: the tracked centres' residuals on
+# the independent renderer's campaign (benchmarks/tracking_campaign.py) have 0.07-0.55; a
+# misfit (a jump, samples in contact) raises it, and a larger value would hide the misfit.
+PHI_MAX = 0.55
+
+
+def correlated_errors(flight: Flight, sd: float, rate: float) -> Flight:
+    """The flight's covariance where the positions carry a tracker's correlated error of
+    stated SD ``sd`` (m per coordinate; sample rate ``rate``, Hz): that error correlated as
+    ``phi^|frames apart|`` (``phi`` the residuals' lag-one autocorrelation, 0 to
+    ``PHI_MAX``) plus white noise of what residual variance ``s_c^2`` it leaves,
+    ``max(s_c^2 - sd^2, 0)`` per coordinate; and the least-squares estimate's
+    covariance ``A S A^T`` (``A`` the least-squares map, ``S`` that error covariance; a
+    "sandwich"). A tracker's centre errors follow the texture under the ball and the codec's
+    blocks: a smooth bias over several frames, which white-noise standard errors understate
+    (docs/tracking.md). Constant-acceleration flights only (a drag fit's priors are not a
+    plain least-squares map): others are returned as they are."""
+    J = flight.jacobian()
+    e = flight.residuals
+    n, d = e.shape
+    den = float(np.sum(e * e))
+    if flight.model != "quadratic" or J is None or flight.tau is None or n < 6 or den <= 0:
+        return flight
+    phi = min(max(float(np.sum(e[1:] * e[:-1])) / den, 0.0), PHI_MAX)
+    # the residual variance beyond the stated SD is white noise: a misfit larger than the
+    # tracker's error then still shows as a trend against it
+    white = np.maximum(np.sum(e * e, axis=0) / (n - 3) - sd * sd, 0.0)
+    errors = ErrorModel(np.rint(flight.tau * rate), phi, sd, white)
+    a = np.linalg.pinv(J.T @ J) @ J.T
+    return replace(flight, cov=a @ errors.apply(a.T), errors=errors)
+
+
 def trend_test(flight: Flight, noise: float | None) -> float:
     """p-value of a cubic trend the flight's model lacks: a score test of one more term
     ``tau^3`` per coordinate, orthogonal to the model's own derivatives (an F test with the
@@ -357,10 +425,37 @@ def trend_test(flight: Flight, noise: float | None) -> float:
     dof = flight.dof - d
     if not (math.isfinite(explained) and dof > 0) or rss <= n * d * 1e-18:
         return 1.0
+    if flight.errors is not None and noise is None:
+        return _stated_error_trend_p(flight, J, Z)
     if noise is not None:
         return float(special.chdtrc(d, explained / noise**2))
     f = (explained / d) / (max(rss - explained, 1e-300) / dof)
     return float(special.fdtrc(d, dof, f))
+
+
+END_SAMPLES = 3  # samples nearest the impact in the end term of the stated-error test
+
+
+def _stated_error_trend_p(flight: Flight, J: np.ndarray, Z: np.ndarray) -> float:
+    """:func:`trend_test` against the tracker's stated correlated error (``errors``): the
+    score of the cubic term and of an offset of the ``END_SAMPLES`` samples nearest the impact
+    (samples in contact, or blurred by it: a run of them is no outlier, and a correlated error
+    would hide it from the cubic term alone), each orthogonal to the model, chi-square with
+    their covariance under that error (``Zp^T S Zp``: ``Zp`` is orthogonal to the model, so the
+    residuals' projection does not change it)."""
+    assert flight.tau is not None and flight.errors is not None
+    n, d = flight.residuals.shape
+    end = np.zeros((n, d, d))
+    near = np.argsort(np.abs(flight.tau))[:END_SAMPLES]
+    for c in range(d):
+        end[near, c, c] = 1.0
+    Z = np.hstack([Z, end.reshape(n * d, d)])
+    e = flight.residuals.ravel()
+    with np.errstate(all="ignore"):
+        Zp = Z - J @ np.linalg.lstsq(J, Z, rcond=None)[0]
+        score = Zp.T @ e
+        stat = float(score @ np.linalg.pinv(Zp.T @ flight.errors.apply(Zp)) @ score)
+    return float(special.chdtrc(2 * d, stat)) if math.isfinite(stat) else 1.0
 
 
 def sample_outlier_p(flight: Flight, i: int) -> float:

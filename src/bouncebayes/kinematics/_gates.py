@@ -62,14 +62,20 @@ def _residuals(name: str, pre: Flight, post: Flight, cfg: FitConfig) -> dict[str
                                         f"{_WHY_MISFIT}{hint}", reason="misfit")
         ratio, p = misfit_ratio(flight.residuals)
         out[f"misfit_{side}"] = ratio
-        if ratio > cfg.max_misfit and p < cfg.p_min:
+        # residuals within the tracker's stated (correlated) error: their smooth pattern is
+        # expected, and the trend test above, against that error's covariance, bounds it
+        stated = flight.errors is not None and flight.s2 <= 2.0 * flight.errors.sd**2
+        if ratio > cfg.max_misfit and p < cfg.p_min and not stated:
             raise TrajectoryError(name, f"the residuals {side} the impact follow a smooth "
                                         f"pattern: their variance is {ratio:.3g} times what "
                                         "their successive differences imply (white noise: 1; "
                                         f"limit {cfg.max_misfit:g}, p = {p:.2g}): {_WHY_MISFIT}"
                                         f"{hint}", reason="misfit")
     if cfg.position_noise is None and max(pre.s2, post.s2) > _EXACT**2:
-        f = pre.s2 / post.s2 if post.s2 > 0 else math.inf
+        # the noise levels, each at least the tracker's stated SD where it is in the model
+        s2_pre, s2_post = (fl.s2 if fl.errors is None else max(fl.s2, fl.errors.variance)
+                           for fl in (pre, post))
+        f = s2_pre / s2_post if s2_post > 0 else math.inf
         p = float(2 * min(special.fdtrc(pre.dof, post.dof, f),
                           special.fdtr(pre.dof, post.dof, f)))
         out["p_equal_noise"] = p

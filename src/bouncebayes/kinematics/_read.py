@@ -32,6 +32,8 @@ class Trajectory:
     ``lines``: the file line of each sample (None for arrays). ``scale_rel_sd`` and
     ``surface_angle_sd_deg``: the tracker's stated calibration uncertainty (its sidecar file).
     ``quality``: the tracker's per-frame columns (``residual``, ``visible``) of the samples.
+    ``position_sd``: the tracker's stated per-frame SD of its centres (m, per coordinate; its
+    sidecar), a floor of the position noise in the flight fits (:func:`fit_bounces`).
     """
 
     t: np.ndarray
@@ -48,6 +50,7 @@ class Trajectory:
     scale_rel_sd: float | None = None
     surface_angle_sd_deg: float | None = None
     quality: Mapping[str, np.ndarray] = field(default_factory=dict)
+    position_sd: float | None = None
     provenance: Mapping[str, Any] | None = None
 
     @property
@@ -158,6 +161,7 @@ def _build(rows: Rows, rotation_deg: float, length_unit: str, n_dropped: int,
                       scale_rel_sd=sidecar.scale_rel_sd if sidecar else None,
                       surface_angle_sd_deg=sidecar.surface_angle_sd_deg if sidecar else None,
                       quality={k: _frozen(v) for k, v in rows.quality.items()},
+                      position_sd=sidecar.position_sd if sidecar else None,
                       provenance=provenance)
 
 

@@ -44,7 +44,8 @@ import numpy as np
 
 RIM_ORDER = 4      # harmonics of the rim level in the polar angle
 INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
-MAX_FRAMES = 9     # frames fitted per video
+MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
+FIRST_FRAMES = 5   # of which fitted with blur and exposure free
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
 
 
@@ -69,7 +70,8 @@ class RadiusFit(NamedTuple):
     """The ball's radius from the edge model: ``radius`` (px) and its standard error
     ``radius_se`` (px, from the scatter of single-frame radii with the shared blur and
     shading held), blur ``sigma`` (px), ``exposure`` (fraction of the frame interval), RMS
-    residual (grey levels), and the frames fitted."""
+    residual (grey levels), and the frames fitted; ``centre_sd``: the tracked centres' per-frame
+    standard deviation (px, per coordinate), set by :func:`._quality.fit_ball_radius`."""
 
     radius: float
     radius_se: float
@@ -78,6 +80,7 @@ class RadiusFit(NamedTuple):
     rms: float
     frames: tuple[int, ...]
     centres: np.ndarray    # the edge fits' centres of ``frames`` (px)
+    centre_sd: float = math.nan  # per-frame SD of the tracked centres, per coordinate (px)
 
 
 class _Pixels(NamedTuple):
@@ -109,8 +112,9 @@ def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
     return z, g
 
 
-def _design(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
-    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step."""
+def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
+    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step: the
+    NumPy reference of the compiled :func:`._edge_kernel.design` (the tests compare them)."""
     from scipy.special import ndtr
 
     r, sigma, exposure = q
@@ -160,13 +164,18 @@ def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
         n = px.u.size
         px = px._replace(cx=np.full(n, q[0]), cy=np.full(n, q[1]))
         q = q[2:]
-    a, step = _design(q, px)
-    a = a * px.weight[:, None]
-    y = (px.grey - px.bg * (1.0 - step)) * px.weight
+    from ._edge_kernel import design
+
+    zt, gt = _sqrt_table()
+    a, y = design(float(q[0]), float(q[1]), float(q[2]), px.u, px.v, px.cx, px.cy, px.dir_u,
+                  px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey, px.bg,
+                  float(zt[0]), float(zt[1] - zt[0]), gt, RIM_ORDER)
     # normal equations with a small ridge: ~10x faster than an SVD, and the columns are
-    # O(1) functions of the pixels (a near-degenerate column gets a coefficient ~0)
+    # O(1) functions of the pixels (a near-degenerate column gets a coefficient ~0). In
+    # NumPy: compiled (numba's np.linalg.solve) they took 25 s more to compile for ~0.1 s
+    # less per video
     ata = a.T @ a
-    ata[np.diag_indices_from(ata)] += 1e-9 * (np.trace(ata) / len(ata) + 1.0)
+    ata.flat[:: len(ata) + 1] += 1e-9 * (np.trace(ata) / len(ata) + 1.0)
     try:
         beta = np.linalg.solve(ata, a.T @ y)
     except np.linalg.LinAlgError:
@@ -288,18 +297,27 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
                centres: np.ndarray, velocities: np.ndarray, r0: float) -> RadiusFit | None:
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
-    ``velocities``: px per frame): every frame fitted alone, then again with the blur and
-    exposure held at their medians; the median radius and its standard error. None if fewer
-    than 3 frames could be fitted."""
+    ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
+    frame with the blur and exposure held at those fits' medians; the median radius and its
+    standard error. None if fewer than 3 frames could be fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
-    first = [fit_edge(*a, r0) for a in args]
-    ok = [f for f in first if f is not None]
+    # the free fits (five parameters, ~3/4 of the cost) on up to FIRST_FRAMES of the frames,
+    # spread: they only set the shared blur and exposure and the starting radius
+    pick = np.unique(np.linspace(0, len(args) - 1, min(FIRST_FRAMES, len(args))).round())
+    first = {int(i): fit_edge(*args[int(i)], r0) for i in pick}
+    ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
     blur = (float(np.median([f.sigma for f in ok])), float(np.median([f.exposure for f in ok])))
     r1 = float(np.median([f.r for f in ok]))
-    second = [None if f is None else fit_edge(img, bg, (f.cx, f.cy), v, r1, blur=blur)
-              for (img, bg, _, v), f in zip(args, first, strict=True)]
+    second: list[EdgeFit | None] = []
+    for i, (img, bg, c, v) in enumerate(args):
+        f = first.get(i)
+        if i in first and f is None:  # its free fit failed: a frame the model cannot follow
+            second.append(None)
+        else:
+            second.append(fit_edge(img, bg, c if f is None else (f.cx, f.cy), v, r1,
+                                   blur=blur))
     fits = [f for f in second if f is not None]
     if len(fits) < 3:
         return None

@@ -256,6 +256,20 @@ def _optional(v: float | None, digits: int = 6) -> float | None:
     return None if v is None or not math.isfinite(v) else round(float(v), digits)
 
 
+def _ball_record(tr: Track) -> dict[str, object]:
+    """The track record's ``ball`` section."""
+    fit = tr.radius_fit
+    return {"radius_px": _optional(tr.ball_radius, 4),
+            "radius_se_px": _optional(tr.ball_radius_se, 4),
+            "method": "edge model" if fit is not None else "coverage (median)",
+            "edge_frames": list(fit.frames) if fit is not None else [],
+            "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
+            "exposure": _optional(fit.exposure, 3) if fit is not None else None,
+            "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
+            "centre_sd_px": _optional(fit.centre_sd, 4) if fit is not None else None,
+            "warning": blur_warning(tr)}
+
+
 def blur_warning(track: Track) -> str | None:
     """A sentence where the ball is so blurred for its size that its radius is unreliable."""
     from ._edge import UNRELIABLE_BLUR
@@ -280,7 +294,6 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
 
     src, tr, cal, srf = video.source, video.track, video.calibration, video.surface
     n, h, w = src.frames.shape
-    fit = tr.radius_fit
     found = tr.found
     res = tr.residual[found] if tr.residual.size else np.zeros(0)
     return {
@@ -292,14 +305,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                     "threshold_grey": round(tr.threshold, 3),
                     "centre_offset_px": [round(v, 4) for v in tr.centre_offset]},
         "settings": settings,
-        "ball": {"radius_px": _optional(tr.ball_radius, 4),
-                 "radius_se_px": _optional(tr.ball_radius_se, 4),
-                 "method": "edge model" if fit is not None else "coverage (median)",
-                 "edge_frames": list(fit.frames) if fit is not None else [],
-                 "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
-                 "exposure": _optional(fit.exposure, 3) if fit is not None else None,
-                 "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
-                 "warning": blur_warning(tr)},
+        "ball": _ball_record(tr),
         "ball_radius_px": _optional(tr.ball_radius, 4),
         "calibration": {"metres_per_pixel": cal.metres_per_px,
                         "metres_per_px": cal.metres_per_px,

@@ -124,8 +124,9 @@ def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method
                     flag: np.ndarray, radius: np.ndarray
                     ) -> tuple[RadiusFit | None, tuple[float, float]]:
     """The edge model on up to ``MAX_FRAMES`` trusted frames spread over the video (ball wholly
-    in view with a margin, both neighbours found for its velocity); and the median offset of
-    the edge fits' centres from the coverage centroids (applied to every centroid)."""
+    in view with a margin, both neighbours found for its velocity), with the centroids'
+    per-frame SD (``centre_sd``); and the median offset of the edge fits' centres from the
+    coverage centroids (applied to every centroid)."""
     whole = method == CENTROID
     if whole.sum() < 3:
         return None, (0.0, 0.0)
@@ -148,7 +149,13 @@ def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method
     if fit is None:
         return None, (0.0, 0.0)
     fit = fit._replace(frames=tuple(int(pick[i]) for i in fit.frames))
+    diff = fit.centres - centre[list(fit.frames)]
+    shift = np.median(diff, axis=0)
+    # the centroids' per-frame error: their RMS disagreement with the edge fits' centres, the
+    # constant offset removed (the edge centres are 2-5x more accurate: on the independent
+    # renderer, MJPEG, radius 10 px, this is 0.05-0.10 px where the centroids' true RMS error
+    # is 0.05-0.13 px, docs/tracking.md); correlated along the track (texture, codec)
+    fit = fit._replace(centre_sd=float(np.sqrt(np.mean((diff - shift) ** 2))))
     if fit.sigma > UNRELIABLE_BLUR * fit.radius:  # the edge fits' centres are not better
         return fit, (0.0, 0.0)
-    shift = np.median(fit.centres - centre[list(fit.frames)], axis=0)
     return fit, (float(shift[0]), float(shift[1]))
