@@ -110,13 +110,16 @@ def test_the_largest_blob_is_opencvs(seed):
 def test_warmup_compiles_every_version_a_video_needs():
     # `bouncebayes warmup` runs _fast.warm(): afterwards a video -- read-only frames, integer
     # settings where floats are expected -- must not compile anything on the user's run
-    from bouncebayes.tracking import _fast, track_ball
+    from bouncebayes.tracking import _edge_kernel, _fast, track_ball
 
     _fast.warm()
-    kernels = (_fast.measure_frames, _fast.edge_fits, _fast.quality_misfit)
+    kernels = (_fast.measure_frames, _fast.edge_fits, _fast.quality_misfit,
+               _edge_kernel.design)
     compiled = [len(k.signatures) for k in kernels]
+    assert compiled[-1] > 0  # the edge model's kernel is warmed too
     frames = render(Scene(n_frames=60), Bounce(x_contact=0.02))
     frames.setflags(write=False)
     track = track_ball(frames, config=TrackerConfig(edge_model=False, min_contrast=12))
     assert (track.method == EDGE_FIT).any()  # the edge fits ran
+    track_ball(frames, config=TrackerConfig(min_contrast=12))  # with the edge model
     assert [len(k.signatures) for k in kernels] == compiled

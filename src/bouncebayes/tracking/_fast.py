@@ -552,7 +552,8 @@ def quality_misfit(frames, bg, gains, sign, threshold, idx, centre, contrast, r,
 def warm() -> None:
     """Compile (or load from numba's on-disk cache) every kernel here, through
     :func:`.track_ball` on a tiny clip: a bright ball entering from the left edge (so the edge
-    fit runs too), with the argument types a video gives them, writable or read-only."""
+    fit runs too), with the argument types a video gives them, writable or read-only, and
+    once with the edge model of the ball's radius (:mod:`._edge_kernel`)."""
     from ._track import TrackerConfig, _track_ball
 
     n, h, w = 12, 48, 64
@@ -563,3 +564,4 @@ def warm() -> None:
     _track_ball(frames, TrackerConfig(edge_model=False), None, compiled=True)
     frames.setflags(write=False)  # numba compiles read-only arrays (a memory map) separately
     _track_ball(frames, TrackerConfig(edge_model=False), None, compiled=True)
+    _track_ball(frames, TrackerConfig(), None, compiled=True)  # the edge model's kernel too
