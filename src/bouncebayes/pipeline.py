@@ -379,9 +379,9 @@ def warmup(log: Callable[[str], None] = print) -> float:
             _warm_once(demo, Path(tmp) / f"{likelihood}-{sampler}", likelihood, sampler,
                        configs[sampler])
     log("compiling: video tracking ...")
-    from .tracking._fast import warm as warm_tracking
+    from .tracking import warm_kernels
 
-    warm_tracking()
+    warm_kernels()
     return time.perf_counter() - start
 
 

@@ -92,4 +92,12 @@ __all__ = ["CENTROID", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND"
            "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
            "TrackerConfig", "VideoSource", "background_model", "blur_warning", "detect_surface",
            "overlay_image", "plane_axes", "read_frames", "read_image", "to_plane_frame",
-           "track_ball", "track_record", "track_video", "write_track_files"]
+           "track_ball", "track_record", "track_video", "warm_kernels", "write_track_files"]
+
+
+def warm_kernels() -> None:
+    """Compile (or load from numba's on-disk cache) the tracker's compiled kernels: the
+    per-frame path and the edge model (``bouncebayes warmup``, run by ``make install``)."""
+    from ._fast import warm
+
+    warm()
