@@ -105,6 +105,35 @@ def test_rebounds_equal_simulate_element_by_element():
     np.testing.assert_array_equal(full.rebound_speed, r.speed)
 
 
+def test_conditions_too_many_to_prepare_give_the_same_numbers(monkeypatch):
+    """Beyond PRECONTRACT_BYTES the sampler kernels contract the table's gravity axis at each
+    evaluation instead of once per condition: the same arithmetic, so bit-identical rebounds
+    (serial and parallel calls) and grid log-likelihoods, with bounded memory."""
+    from bouncebayes.model import _fast
+
+    cond = conditions()
+    rng = np.random.default_rng(3)
+    theta = np.column_stack([rng.uniform(0, 0.5, 200), rng.uniform(0, 5, 200)])
+    mu, eta = np.linspace(0.0, 0.5, 17), np.linspace(0.1, 5.0, 13)
+    speed, angle = np.full(55, 2.5), np.full(55, 30.0)
+    icov, norm = np.tile([400.0, 0.0, 0.04], (55, 1)), np.zeros(55)
+    out = {}
+    for limit in (_fast.PRECONTRACT_BYTES, 0):
+        monkeypatch.setattr(_fast, "PRECONTRACT_BYTES", limit)
+        model = BounceModel(varying=("mu", "eta"), **cond)
+        assert model._prepared_conditions()[1].shape[1] == (_fast.MAIN_PIECES if limit else 0)
+        out[limit] = (model(theta[:3]), model(theta),
+                      model.gaussian_grid(mu, eta, speed=speed, angle=angle,
+                                          inverse_covariance=icov, log_norm=norm))
+    (small_a, big_a, grid_a), (small_b, big_b, grid_b) = out.values()
+    for a, b in ((small_a, small_b), (big_a, big_b)):  # serial, then parallel kernel
+        np.testing.assert_array_equal(a.speed, b.speed)
+        np.testing.assert_array_equal(a.angle, b.angle)
+        np.testing.assert_array_equal(a.contact_time, b.contact_time)
+    np.testing.assert_array_equal(grid_a[0], grid_b[0])
+    np.testing.assert_array_equal(grid_a[1], grid_b[1])
+
+
 @pytest.mark.parametrize("varying", [("mu", "eta", "youngs_modulus"), ("spin", "mu", "eta")])
 def test_rebounds_of_other_parameters_equal_simulate(varying):
     cond = conditions(12)

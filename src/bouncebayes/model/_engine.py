@@ -244,7 +244,10 @@ class BounceModel:
             main, _, _, gamma_max, kv = self._tables
             nc = self.n_conditions
             cond = np.empty((_fast.N_COND, nc))
-            cond_rows = np.empty((nc, _fast.MAIN_PIECES, 2 * _fast.NX))
+            pieces = _fast.MAIN_PIECES  # none where that would take too much memory
+            if nc * pieces * 2 * _fast.NX * 8 > _fast.PRECONTRACT_BYTES:
+                pieces = 0
+            cond_rows = np.empty((nc, pieces, 2 * _fast.NX))
             _fast.prepare_conditions(self.inputs.values, self.inputs.ball, self.bounds, main,
                                      gamma_max, kv, cond, cond_rows)
             self._conditions = cond, cond_rows
@@ -298,8 +301,9 @@ class BounceModel:
         speed, angle, log_norm = (np.ascontiguousarray(a, dtype=float).reshape(nc)
                                   for a in (speed, angle, log_norm))
         icov = np.ascontiguousarray(inverse_covariance, dtype=float).reshape(nc, 3)
-        _fast.gaussian_grid(mu, eta, cond, cond_rows, self.inputs.ball, self.bounds, x_max,
-                            gamma_max, kv, speed, angle, icov, log_norm, out, bad)
+        main = self._tables[0]
+        _fast.gaussian_grid(mu, eta, cond, cond_rows, self.inputs.ball, self.bounds, main,
+                            x_max, gamma_max, kv, speed, angle, icov, log_norm, out, bad)
         return out, bad
 
 

@@ -69,6 +69,11 @@ NG = TABLE_NODES[1]  # the kernels are written for eight gravity terms
 # quantity instead of 24 x 8). Six gravity terms in the pieces would leave ~1e-7: gravity stays.
 MAIN_PIECES = 32
 NX = 8
+# Samplers contract the gravity axis once per condition and piece (``prepare_conditions``:
+# 2 x 8 x 32 values, 4 KiB a condition) where that takes at most this much memory; a larger
+# table (thousands of trials) contracts it at each evaluation instead (the same arithmetic,
+# so the same numbers; ~25 % more time a bounce).
+PRECONTRACT_BYTES = 16 * 2**20
 # The compression table: the scaled normal force Phi along the compression before the force
 # peak, as a function of sigma = sqrt(t / t_peak) (the ODE solution is a power series in
 # sqrt(t) there, so that Phi is smooth in sigma), the damping variable and the gravity number;
@@ -802,10 +807,21 @@ def prepare_conditions(values, ball, bounds, main, gamma_max, kv, cond, cond_row
         cond[C_CZ, c] = damping  # damping number per unit eta
         if gamma <= gamma_max:
             cond[C_STATE, c] = CS_TABLE
-            for piece in range(MAIN_PIECES):
+            for piece in range(cond_rows.shape[1]):  # none: contracted at each evaluation
                 gravity_rows(main[piece], gamma, gamma_max, 0, 2 * NX, cond_rows[c, piece])
         else:
             cond[C_STATE, c] = CS_OUTSIDE
+
+
+@njit(cache=True, inline="always")
+def condition_rows(cond_rows, c, piece, main, gamma, gamma_max, rows):
+    """The gravity-contracted restitution and contact-time rows of condition ``c`` in
+    ``piece``: prepared (``prepare_conditions``), or contracted now into ``rows`` where the
+    conditions were too many to prepare (``cond_rows`` with no pieces)."""
+    if cond_rows.shape[1] > 0:
+        return cond_rows[c, piece]
+    gravity_rows(main[piece], gamma, gamma_max, 0, 2 * NX, rows)
+    return rows
 
 
 @njit(cache=True, inline="always")
@@ -850,7 +866,8 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_ma
         if not x <= x_max:
             return -3
         piece, ux = main_piece(x, x_max)
-        x_values(cond_rows[c, piece], NX, T_E, T_TC + 1, ux, tx, vals)
+        x_values(condition_rows(cond_rows, c, piece, main, gamma, gamma_max, rows), NX, T_E,
+                 T_TC + 1, ux, tx, vals)
     tc = vals[T_TC] * t_star
     impulse = vn * (1.0 + vals[T_E] + gamma * vals[T_TC])
     exact, u, w, phase, slides = tangential_one(
@@ -865,7 +882,8 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_ma
 
 
 @njit(cache=True, inline="always")
-def _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, codes, out):
+def _rebound_row(theta, r, cols, cond, cond_rows, ball, main, x_max, gamma_max, kv, rows, tx,
+                 stage, codes, out):
     """:func:`_rebound_one` for every condition of row ``r`` when the modulus is fixed, in
     three passes over the conditions (damping variable, table, friction and output): short
     loop bodies whose iterations the processor overlaps, where one long body per bounce is a
@@ -885,7 +903,7 @@ def _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, co
         else:
             codes[c] = 0
             piece, ux = main_piece(x, x_max)
-            row = cond_rows[c, piece]
+            row = condition_rows(cond_rows, c, piece, main, cond[C_GAMMA, c], gamma_max, rows)
             cheb_basis(ux, tx, NX)
             stage[1, c] = _dot(row, T_E * NX, tx, NX)
             stage[2, c] = _dot(row, T_TC * NX, tx, NX)
@@ -924,7 +942,8 @@ def rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma
     for r in range(r0, r1):
         row_ok = _row_valid(theta, r, cols, bounds)
         if row_ok and cols[2] < 0:
-            _rebound_row(theta, r, cols, cond, cond_rows, ball, x_max, kv, tx, stage, codes, out)
+            _rebound_row(theta, r, cols, cond, cond_rows, ball, main, x_max, gamma_max, kv,
+                         rows, tx, stage, codes, out)
         for c in range(nc):
             code = K.ST_INVALID
             if row_ok and cols[2] < 0:
@@ -968,7 +987,7 @@ def rebound_parallel(theta, cols, cond, cond_rows, ball, bounds, main, x_max, ga
 
 
 @njit(cache=True, parallel=True)
-def gaussian_grid(mu, eta, cond, cond_rows, ball, bounds, x_max, gamma_max, kv, speed_obs,
+def gaussian_grid(mu, eta, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, speed_obs,
                   angle_obs, icov, log_norm, out, bad):
     """Sum over conditions of bivariate-normal log densities of the (rebound speed, angle)
     misfits on a (mu, eta) grid: the normal impact once per (eta, condition), the tangential
@@ -979,6 +998,7 @@ def gaussian_grid(mu, eta, cond, cond_rows, ball, bounds, x_max, gamma_max, kv, 
     for j in prange(n_eta):
         tx = np.empty(NX)
         vals = np.empty(2)
+        rows = np.empty(2 * NX)
         for i in range(n_mu):
             out[i, j] = 0.0
             if not (bounds[I_MU, 0] <= mu[i] <= bounds[I_MU, 1]
@@ -992,7 +1012,8 @@ def gaussian_grid(mu, eta, cond, cond_rows, ball, bounds, x_max, gamma_max, kv, 
                     bad[i, j] = True
                 continue
             piece, ux = main_piece(x, x_max)
-            x_values(cond_rows[c, piece], NX, T_E, T_TC + 1, ux, tx, vals)
+            x_values(condition_rows(cond_rows, c, piece, main, cond[C_GAMMA, c], gamma_max, rows),
+                     NX, T_E, T_TC + 1, ux, tx, vals)
             tc = vals[T_TC] * cond[C_TSTAR, c]
             impulse = vn * (1.0 + vals[T_E] + cond[C_GAMMA, c] * vals[T_TC])
             vn_out = vals[T_E] * vn
