@@ -98,8 +98,9 @@ def table() -> str:
             cache[path] = json.loads(path.read_text()) if path.is_file() else None
         return cache[path]
 
-    lines = ["| what | shared 2-core machine | idle server, 2 cores | target | against the "
-             "baseline of the same run (shared; idle) | file |", "|---|---|---|---|---|---|"]
+    lines = ["| what | development machine, 2 cores | idle server, 2 cores (earlier code) | target "
+             "| against the baseline of the same run (development; idle) | file |",
+             "|---|---|---|---|---|---|"]
     for what, name, key, show, target, ratio_key in ROWS:
         values, ratios = [], []
         for folder in (RESULTS, QUIET):
