@@ -47,6 +47,8 @@ INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (b
 MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
 FIRST_FRAMES = 5   # of which fitted with blur and exposure free
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
+XTOL = FTOL = 1e-4
+MAX_NFEV = 12
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -114,7 +116,7 @@ def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
 
 def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
     """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step: the
-    NumPy reference of the compiled :func:`._edge_kernel.design` (the tests compare them)."""
+    NumPy reference of the compiled :func:`._edge_kernel.varpro` (the tests compare them)."""
     from scipy.special import ndtr
 
     r, sigma, exposure = q
@@ -286,14 +288,14 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
         model = _Model(q, ~fixed, px)
         try:
             fit = least_squares(model.res, q[~fixed], jac=model.jac,
-                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=1e-4,
-                                ftol=1e-4, max_nfev=12)
+                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=XTOL,
+                                ftol=FTOL, max_nfev=MAX_NFEV)
             scale = 1.4826 * float(np.median(np.abs(fit.fun))) + 1e-9
             px = px._replace(weight=(np.abs(fit.fun) <= 4.0 * scale).astype(np.float64))
             model = _Model(q, ~fixed, px)
             fit = least_squares(model.res, fit.x, jac=model.jac,
-                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=1e-4,
-                                ftol=1e-4, max_nfev=12)
+                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=XTOL,
+                                ftol=FTOL, max_nfev=MAX_NFEV)
         except (ValueError, np.linalg.LinAlgError):
             return None
         q[~fixed] = fit.x
