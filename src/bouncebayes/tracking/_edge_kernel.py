@@ -24,135 +24,175 @@ _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
 
 @njit(cache=True)
-def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, z0, dz, table, rim_order, k, row,
-         drow):
+def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, z0, dz, table, rim_order, want,
+         row, part, chain, ang):
     """One pixel's design row (unweighted: the shared columns, then the pixel's frame's three
-    local ones) at offset ``(du, dv)`` from the centre, into ``row``; with ``0 <= k < 5`` also
-    its derivative with respect to parameter ``k`` of ``(cx, cy, r, sigma, exposure)`` into
-    ``drow`` (forward-mode, by hand: the arithmetic of ``_edge._design_numpy``, each line followed
-    by its tangent). Returns the step and its derivative."""
-    e_cx = 1.0 if k == 0 else 0.0
-    e_cy = 1.0 if k == 1 else 0.0
-    e_r = 1.0 if k == 2 else 0.0
-    e_sg = 1.0 if k == 3 else 0.0
-    e_ex = 1.0 if k == 4 else 0.0
-    d_du, d_dv = -e_cx, -e_cy
+    local ones) at offset ``(du, dv)`` from the centre, into ``row`` (the arithmetic of
+    ``_edge._design_numpy``); returns the step. With ``want``, also what :func:`_drow` needs
+    for the row's derivatives: every column is a radial factor (a function of the depth
+    ``uu``, the blur ``s`` and ``r``) times an angular one (of the polar angle ``t``), so
+    ``part[j] = (R_j, dR_j/duu, dR_j/ds, dR_j/dr)`` for ``R = step, qq, nz, q2, nzq`` (the
+    blurred step's and ramp's closed-form derivatives: ``d ramp/duu = step``, ``d ramp/ds =
+    dens``, ``d square/duu = 2 ramp``, ``d square/ds = 2 s step``), ``chain[k] = (duu, ds,
+    dr, dt)`` with respect to parameter ``k`` of ``(cx, cy, r, sigma, exposure)`` and
+    ``ang[m] = (cos m t, sin m t)``."""
     rho = math.hypot(du, dv)
     rr = max(rho, 1e-9)
     ct = du / rr
     st = dv / rr
-    if rho > 1e-9:
-        d_rho = ct * d_du + st * d_dv
-        d_ct = (d_du - ct * d_rho) / rr
-        d_st = (d_dv - st * d_rho) / rr
-    else:  # a pixel on the centre (never fitted: INNER)
-        d_rho = d_ct = d_st = 0.0
     cos_v = ct * dir_u + st * dir_v
-    d_cv = d_ct * dir_u + d_st * dir_v
     smear2 = (exposure * speed) ** 2 / 12.0
-    d_sm = exposure * speed * speed / 6.0 * e_ex
     base = sigma * sigma + 1.0 / 12.0
-    d_base = 2.0 * sigma * e_sg
     cv2 = cos_v * cos_v
-    d_cv2 = 2.0 * cos_v * d_cv
     var_r = base + smear2 * cv2
-    d_vr = d_base + d_sm * cv2 + smear2 * d_cv2
     var_t = base + smear2 * (1.0 - cv2)
-    d_vt = d_base + d_sm * (1.0 - cv2) - smear2 * d_cv2
     s = math.sqrt(var_r)
-    d_s = d_vr / (2.0 * s)
     uu = r - var_t / (2.0 * r) - rho
-    d_uu = e_r - d_vt / (2.0 * r) + var_t / (2.0 * r * r) * e_r - d_rho
     z = uu / s
-    d_z = (d_uu - z * d_s) / s
     step = 0.5 * math.erfc(-z / _SQRT2)
     dens = math.exp(-0.5 * z * z) * _INV_SQRT_2PI
-    d_step = dens * d_z
-    d_dens = -z * dens * d_z
     ramp = uu * step + s * dens
-    d_ramp = d_uu * step + uu * d_step + d_s * dens + s * d_dens
     square = (uu * uu + s * s) * step + uu * s * dens
-    d_square = (2.0 * (uu * d_uu + s * d_s) * step + (uu * uu + s * s) * d_step
-                + (d_uu * s + uu * d_s) * dens + uu * s * d_dens)
     nt = table.size
+    g_z = 0.0  # d root / dz at s held, of the tabulated part
     if z > z0 + dz * (nt - 1):
         root = math.sqrt(max(uu, 0.0))
-        d_root = d_uu / (2.0 * root) if root > 0.0 else 0.0
+        root_uu = 0.5 / root if root > 0.0 else 0.0
+        root_s = 0.0
     elif z <= z0:
         root = math.sqrt(s) * table[0]
-        d_root = table[0] * d_s / (2.0 * math.sqrt(s))
+        root_uu = 0.0
+        root_s = 0.5 * table[0] / math.sqrt(s)
     else:
         x = (z - z0) / dz
         j = min(int(x), nt - 2)
         f = x - j
         g = table[j] * (1.0 - f) + table[j + 1] * f
         root = math.sqrt(s) * g
-        d_root = (d_s / (2.0 * math.sqrt(s)) * g
-                  + math.sqrt(s) * (table[j + 1] - table[j]) / dz * d_z)
+        g_z = (table[j + 1] - table[j]) / dz
+        root_uu = g_z / math.sqrt(s)
+        root_s = 0.5 * g / math.sqrt(s) - g_z * z / math.sqrt(s)
     sq2r = math.sqrt(2.0 / r)
-    d_sq2r = -0.5 * sq2r / r * e_r
     a1 = 1.0 - uu / (2.0 * r)
-    cl1 = min(max(a1, 0.0), 1.0)
-    d_cl1 = -d_uu / (2.0 * r) + uu / (2.0 * r * r) * e_r if 0.0 < a1 < 1.0 else 0.0
-    sc1 = math.sqrt(cl1)
-    d_sc1 = d_cl1 / (2.0 * sc1) if sc1 > 0.0 else 0.0
-    nz = root * sq2r * sc1
-    d_nz = d_root * sq2r * sc1 + root * d_sq2r * sc1 + root * sq2r * d_sc1
+    b = math.sqrt(min(max(a1, 0.0), 1.0))
+    nz = root * sq2r * b
     qq = step - ramp / r
-    d_qq = d_step - d_ramp / r + ramp / (r * r) * e_r
     q2 = step - 2.0 * ramp / r + square / (r * r)
-    d_q2 = (d_step - 2.0 * d_ramp / r + 2.0 * ramp / (r * r) * e_r + d_square / (r * r)
-            - 2.0 * square / (r * r * r) * e_r)
     a2 = 1.0 - uu / r
     cl2 = min(max(a2, 0.0), 1.0)
-    d_cl2 = -d_uu / r + uu / (r * r) * e_r if 0.0 < a2 < 1.0 else 0.0
     nzq = nz * cl2
-    d_nzq = d_nz * cl2 + nz * d_cl2
     c2 = ct * ct - st * st
-    d_c2 = 2.0 * (ct * d_ct - st * d_st)
     s2 = 2.0 * ct * st
-    d_s2 = 2.0 * (d_ct * st + ct * d_st)
     row[0] = step
-    drow[0] = d_step
     row[1] = qq * ct
-    drow[1] = d_qq * ct + qq * d_ct
     row[2] = qq * st
-    drow[2] = d_qq * st + qq * d_st
     row[3] = nz
-    drow[3] = d_nz
     row[4] = q2 * s2
-    drow[4] = d_q2 * s2 + q2 * d_s2
     row[5] = q2 * c2
-    drow[5] = d_q2 * c2 + q2 * d_c2
     row[6] = nzq * ct
-    drow[6] = d_nzq * ct + nzq * d_ct
     row[7] = nzq * st
-    drow[7] = d_nzq * st + nzq * d_st
     row[8] = step - q2
-    drow[8] = d_step - d_q2
     row[9] = step * c2
-    drow[9] = d_step * c2 + step * d_c2
     row[10] = step * s2
-    drow[10] = d_step * s2 + step * d_s2
-    cm, sm, d_cm, d_sm2 = c2, s2, d_c2, d_s2
+    cm = c2
+    sm = s2
     col = 11
     for _ in range(3, rim_order + 1):
-        cm, sm, d_cm, d_sm2 = (cm * ct - sm * st, sm * ct + cm * st,
-                               d_cm * ct + cm * d_ct - d_sm2 * st - sm * d_st,
-                               d_sm2 * ct + sm * d_ct + d_cm * st + cm * d_st)
+        cm, sm = cm * ct - sm * st, sm * ct + cm * st
         row[col] = step * cm
-        drow[col] = d_step * cm + step * d_cm
         row[col + 1] = step * sm
-        drow[col + 1] = d_step * sm + step * d_sm2
         col += 2
     out = 1.0 - step
     row[col] = out
-    drow[col] = -d_step
     row[col + 1] = out * ct
-    drow[col + 1] = -d_step * ct + out * d_ct
     row[col + 2] = out * st
-    drow[col + 2] = -d_step * st + out * d_st
-    return step, d_step
+    if not want:
+        return step
+    ang[1, 0], ang[1, 1], ang[2, 0], ang[2, 1] = ct, st, c2, s2
+    for m in range(3, rim_order + 1):
+        ang[m, 0] = ang[m - 1, 0] * ct - ang[m - 1, 1] * st
+        ang[m, 1] = ang[m - 1, 1] * ct + ang[m - 1, 0] * st
+    # the radial factors' partial derivatives
+    step_uu = dens / s
+    step_s = -dens * z / s
+    b_uu = b_r = 0.0
+    if 0.0 < a1 < 1.0:
+        b_uu = -0.25 / (r * b)
+        b_r = 0.25 * uu / (r * r * b)
+    c_uu = c_r = 0.0
+    if 0.0 < a2 < 1.0:
+        c_uu = -1.0 / r
+        c_r = uu / (r * r)
+    nz_uu = (root_uu * b + root * b_uu) * sq2r
+    nz_s = root_s * sq2r * b
+    nz_r = -0.5 * nz / r + root * sq2r * b_r
+    part[0, 0], part[0, 1], part[0, 2], part[0, 3] = step, step_uu, step_s, 0.0
+    part[1, 0] = qq
+    part[1, 1] = step_uu - step / r
+    part[1, 2] = step_s - dens / r
+    part[1, 3] = ramp / (r * r)
+    part[2, 0], part[2, 1], part[2, 2], part[2, 3] = nz, nz_uu, nz_s, nz_r
+    part[3, 0] = q2
+    part[3, 1] = step_uu - 2.0 * step / r + 2.0 * ramp / (r * r)
+    part[3, 2] = step_s - 2.0 * dens / r + 2.0 * s * step / (r * r)
+    part[3, 3] = 2.0 * ramp / (r * r) - 2.0 * square / (r * r * r)
+    part[4, 0] = nzq
+    part[4, 1] = nz_uu * cl2 + nz * c_uu
+    part[4, 2] = nz_s * cl2
+    part[4, 3] = nz_r * cl2 + nz * c_r
+    # (uu, s, r, t) with respect to (cx, cy, r, sigma, exposure): the centre moves rho and t
+    # (d rho/dcx = -cos t, dt/dcx = sin t / rho), the blur and exposure the variances
+    inv = 1.0 / rr if rho > 1e-9 else 0.0
+    sin_v = st * dir_u - ct * dir_v  # sin(t - t_v)
+    for k in range(5):
+        d_rho = -ct if k == 0 else (-st if k == 1 else 0.0)
+        d_t = st * inv if k == 0 else (-ct * inv if k == 1 else 0.0)
+        d_cv2 = -2.0 * cos_v * sin_v * d_t
+        d_base = 2.0 * sigma if k == 3 else 0.0
+        d_sm = exposure * speed * speed / 6.0 if k == 4 else 0.0
+        d_vr = d_base + d_sm * cv2 + smear2 * d_cv2
+        d_vt = d_base + d_sm * (1.0 - cv2) - smear2 * d_cv2
+        e_r = 1.0 if k == 2 else 0.0
+        chain[k, 0] = e_r - d_vt / (2.0 * r) + var_t / (2.0 * r * r) * e_r - d_rho
+        chain[k, 1] = d_vr / (2.0 * s)
+        chain[k, 2] = e_r
+        chain[k, 3] = d_t
+    return step
+
+
+@njit(cache=True)
+def _drow(part, chain, ang, k, rim_order, drow):
+    """The derivative of the row of :func:`_row` with respect to parameter ``k``, into
+    ``drow``: each column's radial factor's total derivative times its angular factor, plus
+    the radial factor times the angular factor's derivative (``d cos(m t) = -m sin(m t) dt``)."""
+    d_uu, d_s, d_r, d_t = chain[k, 0], chain[k, 1], chain[k, 2], chain[k, 3]
+    step, qq, q2, nzq = part[0, 0], part[1, 0], part[3, 0], part[4, 0]
+    d_step = part[0, 1] * d_uu + part[0, 2] * d_s
+    d_qq = part[1, 1] * d_uu + part[1, 2] * d_s + part[1, 3] * d_r
+    d_nz = part[2, 1] * d_uu + part[2, 2] * d_s + part[2, 3] * d_r
+    d_q2 = part[3, 1] * d_uu + part[3, 2] * d_s + part[3, 3] * d_r
+    d_nzq = part[4, 1] * d_uu + part[4, 2] * d_s + part[4, 3] * d_r
+    out = 1.0 - step
+    ct, st, c2, s2 = ang[1, 0], ang[1, 1], ang[2, 0], ang[2, 1]
+    drow[0] = d_step
+    drow[1] = d_qq * ct - qq * st * d_t
+    drow[2] = d_qq * st + qq * ct * d_t
+    drow[3] = d_nz
+    drow[4] = d_q2 * s2 + 2.0 * q2 * c2 * d_t
+    drow[5] = d_q2 * c2 - 2.0 * q2 * s2 * d_t
+    drow[6] = d_nzq * ct - nzq * st * d_t
+    drow[7] = d_nzq * st + nzq * ct * d_t
+    drow[8] = d_step - d_q2
+    drow[9] = d_step * c2 - 2.0 * step * s2 * d_t
+    drow[10] = d_step * s2 + 2.0 * step * c2 * d_t
+    col = 11
+    for m in range(3, rim_order + 1):
+        drow[col] = d_step * ang[m, 0] - m * step * ang[m, 1] * d_t
+        drow[col + 1] = d_step * ang[m, 1] + m * step * ang[m, 0] * d_t
+        col += 2
+    drow[col] = -d_step
+    drow[col + 1] = -d_step * ct - out * st * d_t
+    drow[col + 2] = -d_step * st + out * ct * d_t
 
 
 @njit(cache=True)
@@ -205,7 +245,7 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
     near-degenerate column gets a coefficient ~0). The Jacobian is the exact derivative of
     ``res = y - A beta``, ``beta = M^-1 A^T y``, ``M = A^T A + ridge`` (Golub & Pereyra 1973;
     the ridge held): ``d res = g - A M^-1 (A^T g + dA^T res)``, ``g = dy - dA beta``; ``dA``
-    and ``dy`` from :func:`_row`. ``ok`` is False where the normal equations are singular.
+    and ``dy`` from :func:`_row` and :func:`_drow`. ``ok`` is False where the normal equations are singular.
     """
     n = u.size
     n_shared = 11 + 2 * max(rim_order - 2, 0)
@@ -214,9 +254,12 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
     y = np.empty(n)
     row = np.empty(n_shared + 3)
     drow = np.empty(n_shared + 3)
+    part = np.empty((5, 4))
+    chain = np.empty((5, 4))
+    ang = np.empty((max(rim_order, 2) + 1, 2))
     for i in range(n):
-        step, _ = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i],
-                       r, sigma, exposure, z0, dz, table, rim_order, -1, row, drow)
+        step = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r,
+                    sigma, exposure, z0, dz, table, rim_order, False, row, part, chain, ang)
         w = weight[i]
         for c in range(n_shared):
             a[i, c] = row[c] * w
@@ -258,36 +301,43 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
         return res, jac, True
     g = np.empty((n, n_free))
     h = np.zeros((m, n_free))
-    col = 0
-    for k in range(5):
-        if not free[k]:
-            continue
-        for i in range(n):
-            _, d_step = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i],
-                             speed[i], r, sigma, exposure, z0, dz, table, rim_order, k, row,
-                             drow)
-            w = weight[i]
-            j = n_shared + 3 * frame[i]
-            t = bg[i] * d_step
+    for i in range(n):
+        _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r, sigma,
+             exposure, z0, dz, table, rim_order, True, row, part, chain, ang)
+        w = weight[i]
+        wr = w * res[i]
+        j = n_shared + 3 * frame[i]
+        col = 0
+        for k in range(5):
+            if not free[k]:
+                continue
+            _drow(part, chain, ang, k, rim_order, drow)
+            t = bg[i] * drow[0]  # dy: y = (grey - bg (1 - step)) w
             for c in range(n_shared):
                 t -= drow[c] * beta[c]
-                h[c, col] += drow[c] * w * res[i]
+                h[c, col] += drow[c] * wr
             for c in range(3):
                 t -= drow[n_shared + c] * beta[j + c]
-                h[j + c, col] += drow[n_shared + c] * w * res[i]
-            g[i, col] = t * w
-        col += 1
-    rhs = np.empty(m)
+                h[j + c, col] += drow[n_shared + c] * wr
+            t *= w
+            g[i, col] = t
+            for c in range(n_shared):  # h += A^T g (the row's nonzero columns)
+                h[c, col] += a[i, c] * t
+            for c in range(j, j + 3):
+                h[c, col] += a[i, c] * t
+            col += 1
+    sol = np.empty((m, n_free))
     for col in range(n_free):
-        for c in range(m):
-            t = h[c, col]
-            for i in range(n):
-                t += a[i, c] * g[i, col]
-            rhs[c] = t
+        rhs = h[:, col].copy()
         _cho_solve(low, rhs)
-        for i in range(n):
+        sol[:, col] = rhs
+    for i in range(n):
+        j = n_shared + 3 * frame[i]
+        for col in range(n_free):
             t = g[i, col]
-            for c in range(m):
-                t -= a[i, c] * rhs[c]
+            for c in range(n_shared):
+                t -= a[i, c] * sol[c, col]
+            for c in range(j, j + 3):
+                t -= a[i, c] * sol[c, col]
             jac[i, col] = t
     return res, jac, True
