@@ -47,8 +47,9 @@ INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (b
 MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
 FIRST_FRAMES = 5   # of which fitted with blur and exposure free
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
-XTOL = FTOL = 1e-4
-MAX_NFEV = 12
+XTOL = FTOL = 1e-4  # least_squares' tolerances ...
+MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic change, 2-5x
+#                     the time; docs/tracking.md section 3)
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
