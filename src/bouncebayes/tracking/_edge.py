@@ -24,7 +24,8 @@ blurred::
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
 ``(c, r, sigma, a)`` the linear coefficients are solved by least squares (variable
-projection), and those five by ``scipy.optimize.least_squares`` from the best point of a grid
+projection), and those five by ``scipy.optimize.least_squares`` (the residual's analytic
+Jacobian from the same compiled call, :func:`._edge_kernel.varpro`) from the best point of a grid
 of radius and blur (the model has local minima where blur trades against the shading near the
 rim). Saturated pixels (a specular highlight) are left out, and pixels the smooth model cannot
 follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass.
