@@ -245,8 +245,8 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
     near-degenerate column gets a coefficient ~0). The Jacobian is the exact derivative of
     ``res = y - A beta``, ``beta = M^-1 A^T y``, ``M = A^T A + ridge`` (Golub & Pereyra 1973;
     the ridge held): ``d res = g - A M^-1 (A^T g + dA^T res)``, ``g = dy - dA beta``; ``dA``
-    and ``dy`` from :func:`_row` and :func:`_drow`. ``ok`` is False where the normal equations are singular.
-    """
+    and ``dy`` from :func:`_row` and :func:`_drow`. ``ok`` is False where the normal
+    equations are singular."""
     n = u.size
     n_shared = 11 + 2 * max(rim_order - 2, 0)
     m = n_shared + 3 * n_frames
