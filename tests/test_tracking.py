@@ -597,24 +597,69 @@ def test_the_blurred_limb_is_the_gaussian_moment(z):
     assert float(np.interp(z, zs, g)) == pytest.approx(expected, rel=1e-5, abs=1e-9)
 
 
-def test_the_compiled_edge_design_is_the_numpy_one():
-    from bouncebayes.tracking._edge import RIM_ORDER, _design_numpy, _Pixels, _sqrt_table
-    from bouncebayes.tracking._edge_kernel import design
+def _edge_pixels(n_frames: int, seed: int = 3):
+    from bouncebayes.tracking._edge import _Pixels
 
-    # independent: the NumPy reference implementation of the same design matrix (_edge.py),
-    # two frames, the blur, exposure and smear across the range the fits use
-    rng = np.random.default_rng(3)
+    # pixels 4-14 px from a centre near (20.3, 19.7), a ball of radius ~10 px, on n_frames
+    # frames whose centres differ; random grey levels, background and weights
+    rng = np.random.default_rng(seed)
     n = 500
-    px = _Pixels(rng.uniform(0, 40, n), rng.uniform(0, 40, n), rng.uniform(0, 255, n),
-                 rng.uniform(0, 255, n), np.full(n, 20.3), np.full(n, 19.7), np.full(n, 0.6),
-                 np.full(n, 0.8), np.full(n, 1.7), rng.integers(0, 2, n), 2,
-                 rng.uniform(0, 1, n))
-    zt, gt = _sqrt_table()
-    for q in ((10.0, 0.7, 0.5), (5.0, 1.5, 0.0), (15.0, 0.05, 1.0)):
-        a, step = _design_numpy(np.array(q), px)
-        got_a, got_y = design(*q, px.u, px.v, px.cx, px.cy, px.dir_u, px.dir_v, px.speed,
-                              px.frame, px.n_frames, px.weight, px.grey, px.bg, float(zt[0]),
-                              float(zt[1] - zt[0]), gt, RIM_ORDER)
-        np.testing.assert_allclose(got_a, a * px.weight[:, None], rtol=0, atol=1e-10)
-        np.testing.assert_allclose(got_y, (px.grey - px.bg * (1 - step)) * px.weight,
-                                   rtol=0, atol=1e-9)
+    frame = rng.integers(0, n_frames, n)
+    cx, cy = 20.3 + 0.4 * frame, 19.7 - 0.3 * frame
+    ang, rad = rng.uniform(0, 2 * np.pi, n), rng.uniform(4, 14, n)
+    return _Pixels(cx + rad * np.cos(ang), cy + rad * np.sin(ang), rng.uniform(0, 255, n),
+                   rng.uniform(0, 255, n), cx, cy, np.full(n, 0.6), np.full(n, 0.8),
+                   np.full(n, 1.7), frame, n_frames, rng.uniform(0.5, 1, n))
+
+
+def test_the_compiled_edge_model_is_the_numpy_one():
+    from bouncebayes.tracking._edge import _design_numpy, _residual
+
+    # independent: the NumPy reference of the same design matrix (_edge._design_numpy) and
+    # the linear coefficients by NumPy (LU) with the same small ridge, two frames (the centres held)
+    # and one (the centre shifted), the blur, exposure and smear across the range the fits use
+    for n_frames in (2, 1):
+        px = _edge_pixels(n_frames)
+        for q in ((10.0, 0.7, 0.5), (5.0, 1.5, 0.0), (15.0, 0.05, 1.0)):
+            ref = px
+            if n_frames == 1:  # the centre moved by (0.2, -0.1) px
+                ref = px._replace(cx=px.cx + 0.2, cy=px.cy - 0.1)
+                got = _residual(np.array([px.cx[0] + 0.2, px.cy[0] - 0.1, *q]), px)
+            else:
+                got = _residual(np.array(q), px)
+            a, step = _design_numpy(np.array(q), ref)
+            w = ref.weight
+            y = (ref.grey - ref.bg * (1 - step)) * w
+            aw = a * w[:, None]
+            ata = aw.T @ aw
+            ata.flat[:: len(ata) + 1] += 1e-9 * (np.trace(ata) / len(ata) + 1.0)  # its ridge
+            beta = np.linalg.solve(ata, aw.T @ y)
+            np.testing.assert_allclose(got, y - aw @ beta, rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("q", [(20.3, 19.7, 10.0, 0.7, 0.5), (20.1, 19.9, 9.0, 1.5, 0.05),
+                               (20.4, 19.5, 11.0, 0.3, 1.0)])
+def test_the_edge_models_jacobian_is_the_derivative_of_its_residual(q):
+    from bouncebayes.tracking._edge import _evaluate, _residual
+
+    # expected: central differences of the same residual (_residual: the compiled model with
+    # the linear coefficients solved), steps 1e-7 (centre, radius), 1e-8 (blur), 1e-5 (the
+    # exposure's column is ~100x smaller: rounding). The limb's table is linearly interpolated
+    # (kinks every 0.01 in z), so where a pixel's z crosses a kink within the step the
+    # differences are off there and, through the linear coefficients, a little everywhere;
+    # they converge to the Jacobian as the step shrinks (step 1e-5 to 1e-8: the largest
+    # difference falls from ~2e-3 to ~7e-5 of the column's largest entry)
+    px = _edge_pixels(1)
+    q = np.array(q)
+    for free in (np.ones(5, bool), np.array([1, 1, 1, 0, 0], bool)):
+        res, jac = _evaluate(q, px, free, True)
+        np.testing.assert_array_equal(res, _residual(q, px))
+        assert jac.shape == (px.u.size, free.sum())
+        for col, k in enumerate(np.flatnonzero(free)):
+            e = np.zeros(5)
+            e[k] = (1e-7, 1e-7, 1e-7, 1e-8, 1e-5)[k]
+            fd = (_residual(q + e, px) - _residual(q - e, px)) / (2 * e[k])
+            scale = np.abs(fd).max()
+            assert scale > 0.1  # every parameter moves the residual
+            np.testing.assert_allclose(jac[:, col], fd, rtol=0, atol=3e-4 * scale)
+            assert np.median(np.abs(jac[:, col] - fd)) < 5e-5 * scale

@@ -24,7 +24,8 @@ blurred::
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
 ``(c, r, sigma, a)`` the linear coefficients are solved by least squares (variable
-projection), and those five by ``scipy.optimize.least_squares`` from the best point of a grid
+projection), and those five by ``scipy.optimize.least_squares`` (the residual's analytic
+Jacobian from the same compiled call, :func:`._edge_kernel.varpro`) from the best point of a grid
 of radius and blur (the model has local minima where blur trades against the shading near the
 rim). Saturated pixels (a specular highlight) are left out, and pixels the smooth model cannot
 follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass.
@@ -47,6 +48,9 @@ INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (b
 MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
 FIRST_FRAMES = 5   # of which fitted with blur and exposure free
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
+XTOL = FTOL = 1e-4  # least_squares' tolerances ...
+MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic change, 2-5x
+#                     the time; docs/tracking.md section 3)
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -114,7 +118,7 @@ def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
 
 def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
     """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step: the
-    NumPy reference of the compiled :func:`._edge_kernel.design` (the tests compare them)."""
+    NumPy reference of the compiled :func:`._edge_kernel.varpro` (the tests compare them)."""
     from scipy.special import ndtr
 
     r, sigma, exposure = q
@@ -160,27 +164,35 @@ def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
 def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
     """Weighted residuals at ``q = (cx, cy, r, sigma, exposure)`` (one frame) or ``(r, sigma,
     exposure)`` (the centres held), the linear coefficients solved."""
-    if q.size == 5:
-        n = px.u.size
-        px = px._replace(cx=np.full(n, q[0]), cy=np.full(n, q[1]))
-        q = q[2:]
-    from ._edge_kernel import design
+    return _evaluate(q, px, _NONE_FREE, False)[0]
 
+
+_NONE_FREE = np.zeros(5, bool)
+
+
+def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted residuals at ``q`` (as :func:`_residual`) and, with ``want_jac``, their
+    Jacobian with respect to the entries of ``(cx, cy, r, sigma, exposure)`` flagged in
+    ``free`` (analytic, :func:`._edge_kernel.varpro`: one compiled call). Raises
+    ``np.linalg.LinAlgError`` where the linear coefficients are not determined."""
+    from ._edge_kernel import varpro
+
+    if q.size == 5:
+        cx, cy = float(q[0]), float(q[1])
+        cu = cv = np.zeros(px.u.size)
+        q = q[2:]
+    else:
+        cx = cy = 0.0
+        cu, cv = px.cx, px.cy
     zt, gt = _sqrt_table()
-    a, y = design(float(q[0]), float(q[1]), float(q[2]), px.u, px.v, px.cx, px.cy, px.dir_u,
-                  px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey, px.bg,
-                  float(zt[0]), float(zt[1] - zt[0]), gt, RIM_ORDER)
-    # normal equations with a small ridge: ~10x faster than an SVD, and the columns are
-    # O(1) functions of the pixels (a near-degenerate column gets a coefficient ~0). In
-    # NumPy: compiled (numba's np.linalg.solve) they took 25 s more to compile for ~0.1 s
-    # less per video
-    ata = a.T @ a
-    ata.flat[:: len(ata) + 1] += 1e-9 * (np.trace(ata) / len(ata) + 1.0)
-    try:
-        beta = np.linalg.solve(ata, a.T @ y)
-    except np.linalg.LinAlgError:
-        beta, *_ = np.linalg.lstsq(a, y, rcond=None)
-    return y - a @ beta
+    res, jac, ok = varpro(cx, cy, float(q[0]), float(q[1]), float(q[2]), free, px.u, px.v,
+                          cu, cv, px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames,
+                          px.weight, px.grey, px.bg, float(zt[0]), float(zt[1] - zt[0]), gt,
+                          RIM_ORDER, want_jac)
+    if not ok:
+        raise np.linalg.LinAlgError("edge model: singular normal equations")
+    return res, jac
 
 
 def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels | None:
@@ -215,6 +227,28 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels |
     full = functools.partial(np.full, n)
     return _Pixels(uu, vv, sub, bgw, full(c[0]), full(c[1]), full(du), full(dv), full(speed),
                    np.zeros(n, np.intp), 1, np.ones(n))
+
+
+class _Model:
+    """The residuals and their analytic Jacobian as functions of the free parameters ``x``
+    (``q`` with ``free`` replaced), for ``least_squares``: both come from one compiled call,
+    kept for the Jacobian that ``least_squares`` asks for at the point it just evaluated."""
+
+    def __init__(self, q: np.ndarray, free: np.ndarray, px: _Pixels):
+        self.q, self.free, self.px = q.copy(), free, px
+        self.x: np.ndarray | None = None
+        self.jacobian = np.empty((0, 0))
+
+    def res(self, x: np.ndarray) -> np.ndarray:
+        self.q[self.free] = x
+        res, self.jacobian = _evaluate(self.q, self.px, self.free, True)
+        self.x = x.copy()
+        return res
+
+    def jac(self, x: np.ndarray) -> np.ndarray:
+        if self.x is None or not np.array_equal(x, self.x):
+            self.res(x)
+        return self.jacobian
 
 
 class EdgeFit(NamedTuple):
@@ -253,20 +287,17 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
             return None
         q = np.clip(q, lo + 1e-9, hi - 1e-9)
 
-        def res(x, px=px, q=q):
-            full = q.copy()
-            full[~fixed] = x
-            return _residual(full, px)
-
+        model = _Model(q, ~fixed, px)
         try:
-            fit = least_squares(res, q[~fixed], bounds=(lo[~fixed], hi[~fixed]),
-                                x_scale=0.05, diff_step=1e-4, xtol=1e-4, ftol=1e-4,
-                                max_nfev=12)
+            fit = least_squares(model.res, q[~fixed], jac=model.jac,
+                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=XTOL,
+                                ftol=FTOL, max_nfev=MAX_NFEV)
             scale = 1.4826 * float(np.median(np.abs(fit.fun))) + 1e-9
             px = px._replace(weight=(np.abs(fit.fun) <= 4.0 * scale).astype(np.float64))
-            fit = least_squares(res, fit.x, bounds=(lo[~fixed], hi[~fixed]), args=(px,),
-                                x_scale=0.05, diff_step=1e-4, xtol=1e-4, ftol=1e-4,
-                                max_nfev=12)
+            model = _Model(q, ~fixed, px)
+            fit = least_squares(model.res, fit.x, jac=model.jac,
+                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=XTOL,
+                                ftol=FTOL, max_nfev=MAX_NFEV)
         except (ValueError, np.linalg.LinAlgError):
             return None
         q[~fixed] = fit.x
@@ -287,7 +318,10 @@ def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
     for sigma in (0.2, 0.7, 1.3):
         for r in r0 * np.linspace(0.8, 1.25, 8):
             q = np.array([centre[0], centre[1], r, sigma, 0.0])
-            cost = float(np.sum(_residual(q, px) ** 2))
+            try:
+                cost = float(np.sum(_residual(q, px) ** 2))
+            except np.linalg.LinAlgError:
+                continue
             if cost < best:
                 best, q_best = cost, q
     return q_best

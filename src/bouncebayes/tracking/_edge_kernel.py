@@ -1,10 +1,15 @@
-"""The edge model's design matrix, compiled: one fused pass over the pixels.
+"""The edge model, compiled: its residual and analytic Jacobian in one fused pass over the
+pixels.
 
 The same arithmetic as the NumPy reference ``_edge._design_numpy`` (kept for the tests, which
-compare the two), without its ~40 temporary arrays: the edge model evaluates the design ~1000
-times per video inside ``scipy.optimize.least_squares``, and NumPy's per-operation overhead on
-~1000-pixel arrays made it 0.5-3 s per video. Written here because no library builds this
-matrix; imported by ``_edge`` where the model runs (numba stays out of the package import).
+compare the two), without its ~40 temporary arrays and NumPy's per-call overhead: the edge
+model is evaluated ~300 times per video inside ``scipy.optimize.least_squares``. Each call
+builds the design matrix, solves the linear coefficients (variable projection) and, for
+``least_squares``'s ``jac=``, differentiates the projected residual with respect to the
+nonlinear parameters (the design's derivatives by forward-mode differentiation of each
+pixel's row, by hand): with finite differences instead the model was evaluated ~1000 times
+per video. Written here because no library builds this model; imported by ``_edge`` where
+the model runs (numba stays out of the package import).
 """
 
 from __future__ import annotations
@@ -19,75 +24,320 @@ _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 
 
 @njit(cache=True)
-def design(r, sigma, exposure, u, v, cx, cy, dir_u, dir_v, speed, frame, n_frames, weight,
-           grey, bg, z0, dz, table, rim_order):
-    """Weighted design matrix ``(n_pix, n_shared + 3 n_frames)`` and weighted data
-    ``(grey - bg (1 - step)) weight`` at ``(r, sigma, exposure)``; ``table`` is
-    ``E[sqrt(z + Z)_+]`` on the uniform grid ``z0 + dz k``."""
+def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, z0, dz, table, rim_order, want,
+         row, part, chain, ang):
+    """One pixel's design row (unweighted: the shared columns, then the pixel's frame's three
+    local ones) at offset ``(du, dv)`` from the centre, into ``row`` (the arithmetic of
+    ``_edge._design_numpy``); returns the step. With ``want``, also what :func:`_drow` needs
+    for the row's derivatives: every column is a radial factor (a function of the depth
+    ``uu``, the blur ``s`` and ``r``) times an angular one (of the polar angle ``t``), so
+    ``part[j] = (R_j, dR_j/duu, dR_j/ds, dR_j/dr)`` for ``R = step, qq, nz, q2, nzq`` (the
+    blurred step's and ramp's closed-form derivatives: ``d ramp/duu = step``, ``d ramp/ds =
+    dens``, ``d square/duu = 2 ramp``, ``d square/ds = 2 s step``), ``chain[k] = (duu, ds,
+    dr, dt)`` with respect to parameter ``k`` of ``(cx, cy, r, sigma, exposure)`` and
+    ``ang[m] = (cos m t, sin m t)``."""
+    rho = math.hypot(du, dv)
+    rr = max(rho, 1e-9)
+    ct = du / rr
+    st = dv / rr
+    cos_v = ct * dir_u + st * dir_v
+    smear2 = (exposure * speed) ** 2 / 12.0
+    base = sigma * sigma + 1.0 / 12.0
+    cv2 = cos_v * cos_v
+    var_r = base + smear2 * cv2
+    var_t = base + smear2 * (1.0 - cv2)
+    s = math.sqrt(var_r)
+    uu = r - var_t / (2.0 * r) - rho
+    z = uu / s
+    step = 0.5 * math.erfc(-z / _SQRT2)
+    dens = math.exp(-0.5 * z * z) * _INV_SQRT_2PI
+    ramp = uu * step + s * dens
+    square = (uu * uu + s * s) * step + uu * s * dens
+    nt = table.size
+    g_z = 0.0  # d root / dz at s held, of the tabulated part
+    if z > z0 + dz * (nt - 1):
+        root = math.sqrt(max(uu, 0.0))
+        root_uu = 0.5 / root if root > 0.0 else 0.0
+        root_s = 0.0
+    elif z <= z0:
+        root = math.sqrt(s) * table[0]
+        root_uu = 0.0
+        root_s = 0.5 * table[0] / math.sqrt(s)
+    else:
+        x = (z - z0) / dz
+        j = min(int(x), nt - 2)
+        f = x - j
+        g = table[j] * (1.0 - f) + table[j + 1] * f
+        root = math.sqrt(s) * g
+        g_z = (table[j + 1] - table[j]) / dz
+        root_uu = g_z / math.sqrt(s)
+        root_s = 0.5 * g / math.sqrt(s) - g_z * z / math.sqrt(s)
+    sq2r = math.sqrt(2.0 / r)
+    a1 = 1.0 - uu / (2.0 * r)
+    b = math.sqrt(min(max(a1, 0.0), 1.0))
+    nz = root * sq2r * b
+    qq = step - ramp / r
+    q2 = step - 2.0 * ramp / r + square / (r * r)
+    a2 = 1.0 - uu / r
+    cl2 = min(max(a2, 0.0), 1.0)
+    nzq = nz * cl2
+    c2 = ct * ct - st * st
+    s2 = 2.0 * ct * st
+    row[0] = step
+    row[1] = qq * ct
+    row[2] = qq * st
+    row[3] = nz
+    row[4] = q2 * s2
+    row[5] = q2 * c2
+    row[6] = nzq * ct
+    row[7] = nzq * st
+    row[8] = step - q2
+    row[9] = step * c2
+    row[10] = step * s2
+    cm = c2
+    sm = s2
+    col = 11
+    for _ in range(3, rim_order + 1):
+        cm, sm = cm * ct - sm * st, sm * ct + cm * st
+        row[col] = step * cm
+        row[col + 1] = step * sm
+        col += 2
+    out = 1.0 - step
+    row[col] = out
+    row[col + 1] = out * ct
+    row[col + 2] = out * st
+    if not want:
+        return step
+    ang[1, 0], ang[1, 1], ang[2, 0], ang[2, 1] = ct, st, c2, s2
+    for m in range(3, rim_order + 1):
+        ang[m, 0] = ang[m - 1, 0] * ct - ang[m - 1, 1] * st
+        ang[m, 1] = ang[m - 1, 1] * ct + ang[m - 1, 0] * st
+    # the radial factors' partial derivatives
+    step_uu = dens / s
+    step_s = -dens * z / s
+    b_uu = b_r = 0.0
+    if 0.0 < a1 < 1.0:
+        b_uu = -0.25 / (r * b)
+        b_r = 0.25 * uu / (r * r * b)
+    c_uu = c_r = 0.0
+    if 0.0 < a2 < 1.0:
+        c_uu = -1.0 / r
+        c_r = uu / (r * r)
+    nz_uu = (root_uu * b + root * b_uu) * sq2r
+    nz_s = root_s * sq2r * b
+    nz_r = -0.5 * nz / r + root * sq2r * b_r
+    part[0, 0], part[0, 1], part[0, 2], part[0, 3] = step, step_uu, step_s, 0.0
+    part[1, 0] = qq
+    part[1, 1] = step_uu - step / r
+    part[1, 2] = step_s - dens / r
+    part[1, 3] = ramp / (r * r)
+    part[2, 0], part[2, 1], part[2, 2], part[2, 3] = nz, nz_uu, nz_s, nz_r
+    part[3, 0] = q2
+    part[3, 1] = step_uu - 2.0 * step / r + 2.0 * ramp / (r * r)
+    part[3, 2] = step_s - 2.0 * dens / r + 2.0 * s * step / (r * r)
+    part[3, 3] = 2.0 * ramp / (r * r) - 2.0 * square / (r * r * r)
+    part[4, 0] = nzq
+    part[4, 1] = nz_uu * cl2 + nz * c_uu
+    part[4, 2] = nz_s * cl2
+    part[4, 3] = nz_r * cl2 + nz * c_r
+    # (uu, s, r, t) with respect to (cx, cy, r, sigma, exposure): the centre moves rho and t
+    # (d rho/dcx = -cos t, dt/dcx = sin t / rho), the blur and exposure the variances
+    inv = 1.0 / rr if rho > 1e-9 else 0.0
+    sin_v = st * dir_u - ct * dir_v  # sin(t - t_v)
+    for k in range(5):
+        d_rho = -ct if k == 0 else (-st if k == 1 else 0.0)
+        d_t = st * inv if k == 0 else (-ct * inv if k == 1 else 0.0)
+        d_cv2 = -2.0 * cos_v * sin_v * d_t
+        d_base = 2.0 * sigma if k == 3 else 0.0
+        d_sm = exposure * speed * speed / 6.0 if k == 4 else 0.0
+        d_vr = d_base + d_sm * cv2 + smear2 * d_cv2
+        d_vt = d_base + d_sm * (1.0 - cv2) - smear2 * d_cv2
+        e_r = 1.0 if k == 2 else 0.0
+        chain[k, 0] = e_r - d_vt / (2.0 * r) + var_t / (2.0 * r * r) * e_r - d_rho
+        chain[k, 1] = d_vr / (2.0 * s)
+        chain[k, 2] = e_r
+        chain[k, 3] = d_t
+    return step
+
+
+@njit(cache=True)
+def _drow(part, chain, ang, k, rim_order, drow):
+    """The derivative of the row of :func:`_row` with respect to parameter ``k``, into
+    ``drow``: each column's radial factor's total derivative times its angular factor, plus
+    the radial factor times the angular factor's derivative (``d cos(m t) = -m sin(m t) dt``)."""
+    d_uu, d_s, d_r, d_t = chain[k, 0], chain[k, 1], chain[k, 2], chain[k, 3]
+    step, qq, q2, nzq = part[0, 0], part[1, 0], part[3, 0], part[4, 0]
+    d_step = part[0, 1] * d_uu + part[0, 2] * d_s
+    d_qq = part[1, 1] * d_uu + part[1, 2] * d_s + part[1, 3] * d_r
+    d_nz = part[2, 1] * d_uu + part[2, 2] * d_s + part[2, 3] * d_r
+    d_q2 = part[3, 1] * d_uu + part[3, 2] * d_s + part[3, 3] * d_r
+    d_nzq = part[4, 1] * d_uu + part[4, 2] * d_s + part[4, 3] * d_r
+    out = 1.0 - step
+    ct, st, c2, s2 = ang[1, 0], ang[1, 1], ang[2, 0], ang[2, 1]
+    drow[0] = d_step
+    drow[1] = d_qq * ct - qq * st * d_t
+    drow[2] = d_qq * st + qq * ct * d_t
+    drow[3] = d_nz
+    drow[4] = d_q2 * s2 + 2.0 * q2 * c2 * d_t
+    drow[5] = d_q2 * c2 - 2.0 * q2 * s2 * d_t
+    drow[6] = d_nzq * ct - nzq * st * d_t
+    drow[7] = d_nzq * st + nzq * ct * d_t
+    drow[8] = d_step - d_q2
+    drow[9] = d_step * c2 - 2.0 * step * s2 * d_t
+    drow[10] = d_step * s2 + 2.0 * step * c2 * d_t
+    col = 11
+    for m in range(3, rim_order + 1):
+        drow[col] = d_step * ang[m, 0] - m * step * ang[m, 1] * d_t
+        drow[col + 1] = d_step * ang[m, 1] + m * step * ang[m, 0] * d_t
+        col += 2
+    drow[col] = -d_step
+    drow[col + 1] = -d_step * ct - out * st * d_t
+    drow[col + 2] = -d_step * st + out * ct * d_t
+
+
+@njit(cache=True)
+def _cholesky(m):
+    """Lower Cholesky factor of the symmetric positive definite ``m`` (in place: the lower
+    triangle); False where a pivot is not positive. By hand: numba's ``np.linalg`` took ~25 s
+    more to compile for a 15-20 column matrix."""
+    n = m.shape[0]
+    for j in range(n):
+        d = m[j, j]
+        for p in range(j):
+            d -= m[j, p] * m[j, p]
+        if not d > 0.0:
+            return False
+        d = math.sqrt(d)
+        m[j, j] = d
+        for i in range(j + 1, n):
+            t = m[i, j]
+            for p in range(j):
+                t -= m[i, p] * m[j, p]
+            m[i, j] = t / d
+    return True
+
+
+@njit(cache=True)
+def _cho_solve(low, b):
+    """``x`` with ``low low^T x = b`` (``low`` from :func:`_cholesky`), in place in ``b``."""
+    n = b.size
+    for i in range(n):
+        t = b[i]
+        for p in range(i):
+            t -= low[i, p] * b[p]
+        b[i] = t / low[i, i]
+    for i in range(n - 1, -1, -1):
+        t = b[i]
+        for p in range(i + 1, n):
+            t -= low[p, i] * b[p]
+        b[i] = t / low[i, i]
+
+
+@njit(cache=True)
+def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, frame,
+           n_frames, weight, grey, bg, z0, dz, table, rim_order, want_jac):
+    """The edge model's weighted residual at ``(cx, cy, r, sigma, exposure)``, the linear
+    coefficients solved (variable projection), and its Jacobian with respect to the
+    parameters flagged in ``free`` (``(n_pix, n_free)``; empty unless ``want_jac``), in one
+    call. Each pixel's centre is ``(cu + cx, cv + cy)``: ``cu, cv`` the frames' offsets (zero
+    for one frame), ``cx, cy`` a shift shared by all. The coefficients are the normal
+    equations' with a small ridge (the columns are O(1) functions of the pixels: a
+    near-degenerate column gets a coefficient ~0). The Jacobian is the exact derivative of
+    ``res = y - A beta``, ``beta = M^-1 A^T y``, ``M = A^T A + ridge`` (Golub & Pereyra 1973;
+    the ridge held): ``d res = g - A M^-1 (A^T g + dA^T res)``, ``g = dy - dA beta``; ``dA``
+    and ``dy`` from :func:`_row` and :func:`_drow`. ``ok`` is False where the normal
+    equations are singular."""
     n = u.size
     n_shared = 11 + 2 * max(rim_order - 2, 0)
-    a = np.zeros((n, n_shared + 3 * n_frames))
+    m = n_shared + 3 * n_frames
+    a = np.zeros((n, m))
     y = np.empty(n)
-    base = sigma * sigma + 1.0 / 12.0
-    nt = table.size
-    z_hi = z0 + dz * (nt - 1)
+    row = np.empty(n_shared + 3)
+    drow = np.empty(n_shared + 3)
+    part = np.empty((5, 4))
+    chain = np.empty((5, 4))
+    ang = np.empty((max(rim_order, 2) + 1, 2))
     for i in range(n):
-        du = u[i] - cx[i]
-        dv = v[i] - cy[i]
-        rho = math.hypot(du, dv)
-        rr = max(rho, 1e-9)
-        ct = du / rr
-        st = dv / rr
-        cos_v = ct * dir_u[i] + st * dir_v[i]
-        smear2 = (exposure * speed[i]) ** 2 / 12.0
-        var_r = base + smear2 * cos_v * cos_v
-        var_t = base + smear2 * (1.0 - cos_v * cos_v)
-        s = math.sqrt(var_r)
-        uu = r - var_t / (2.0 * r) - rho
-        z = uu / s
-        step = 0.5 * math.erfc(-z / _SQRT2)
-        dens = math.exp(-0.5 * z * z) * _INV_SQRT_2PI
-        ramp = uu * step + s * dens
-        square = (uu * uu + s * s) * step + uu * s * dens
-        if z > z_hi:
-            root = math.sqrt(max(uu, 0.0))
-        elif z <= z0:
-            root = math.sqrt(s) * table[0]
-        else:
-            x = (z - z0) / dz
-            k = min(int(x), nt - 2)
-            f = x - k
-            root = math.sqrt(s) * (table[k] * (1.0 - f) + table[k + 1] * f)
-        nz = root * math.sqrt(2.0 / r) * math.sqrt(min(max(1.0 - uu / (2.0 * r), 0.0), 1.0))
-        qq = step - ramp / r
-        q2 = step - 2.0 * ramp / r + square / (r * r)
-        nzq = nz * min(max(1.0 - uu / r, 0.0), 1.0)
-        c2 = ct * ct - st * st
-        s2 = 2.0 * ct * st
+        step = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r,
+                    sigma, exposure, z0, dz, table, rim_order, False, row, part, chain, ang)
         w = weight[i]
-        a[i, 0] = step * w
-        a[i, 1] = qq * ct * w
-        a[i, 2] = qq * st * w
-        a[i, 3] = nz * w
-        a[i, 4] = q2 * s2 * w
-        a[i, 5] = q2 * c2 * w
-        a[i, 6] = nzq * ct * w
-        a[i, 7] = nzq * st * w
-        a[i, 8] = (step - q2) * w
-        a[i, 9] = step * c2 * w
-        a[i, 10] = step * s2 * w
-        cm = c2
-        sm = s2
-        col = 11
-        for _ in range(3, rim_order + 1):
-            cm, sm = cm * ct - sm * st, sm * ct + cm * st
-            a[i, col] = step * cm * w
-            a[i, col + 1] = step * sm * w
-            col += 2
-        out = 1.0 - step
+        for c in range(n_shared):
+            a[i, c] = row[c] * w
         j = n_shared + 3 * frame[i]
-        a[i, j] = out * w
-        a[i, j + 1] = out * ct * w
-        a[i, j + 2] = out * st * w
-        y[i] = (grey[i] - bg[i] * out) * w
-    return a, y
+        for c in range(3):
+            a[i, j + c] = row[n_shared + c] * w
+        y[i] = (grey[i] - bg[i] * (1.0 - step)) * w
+    # normal equations (lower triangle), with the ridge of the NumPy path
+    low = np.zeros((m, m))
+    aty = np.zeros(m)
+    for i in range(n):
+        for c in range(m):
+            ac = a[i, c]
+            if ac != 0.0:
+                aty[c] += ac * y[i]
+                for p in range(c + 1):
+                    low[c, p] += ac * a[i, p]
+    trace = 0.0
+    for c in range(m):
+        trace += low[c, c]
+    ridge = 1e-9 * (trace / m + 1.0)
+    for c in range(m):
+        low[c, c] += ridge
+    n_free = 0
+    for k in range(5):
+        n_free += 1 if free[k] else 0
+    res = np.empty(n)
+    jac = np.empty((n, n_free if want_jac else 0))
+    if not _cholesky(low):
+        return res, jac, False
+    beta = aty
+    _cho_solve(low, beta)
+    for i in range(n):
+        t = y[i]
+        for c in range(m):
+            t -= a[i, c] * beta[c]
+        res[i] = t
+    if not want_jac:
+        return res, jac, True
+    g = np.empty((n, n_free))
+    h = np.zeros((m, n_free))
+    for i in range(n):
+        _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r, sigma,
+             exposure, z0, dz, table, rim_order, True, row, part, chain, ang)
+        w = weight[i]
+        wr = w * res[i]
+        j = n_shared + 3 * frame[i]
+        col = 0
+        for k in range(5):
+            if not free[k]:
+                continue
+            _drow(part, chain, ang, k, rim_order, drow)
+            t = bg[i] * drow[0]  # dy: y = (grey - bg (1 - step)) w
+            for c in range(n_shared):
+                t -= drow[c] * beta[c]
+                h[c, col] += drow[c] * wr
+            for c in range(3):
+                t -= drow[n_shared + c] * beta[j + c]
+                h[j + c, col] += drow[n_shared + c] * wr
+            t *= w
+            g[i, col] = t
+            for c in range(n_shared):  # h += A^T g (the row's nonzero columns)
+                h[c, col] += a[i, c] * t
+            for c in range(j, j + 3):
+                h[c, col] += a[i, c] * t
+            col += 1
+    sol = np.empty((m, n_free))
+    for col in range(n_free):
+        rhs = h[:, col].copy()
+        _cho_solve(low, rhs)
+        sol[:, col] = rhs
+    for i in range(n):
+        j = n_shared + 3 * frame[i]
+        for col in range(n_free):
+            t = g[i, col]
+            for c in range(n_shared):
+                t -= a[i, c] * sol[c, col]
+            for c in range(j, j + 3):
+                t -= a[i, c] * sol[c, col]
+            jac[i, col] = t
+    return res, jac, True
