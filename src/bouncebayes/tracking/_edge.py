@@ -61,13 +61,18 @@ MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic
 # 0.75-1.3 px at 0.18-0.26.
 SYSTEMATIC_PX = 0.06
 BLUR_TERM = 600.0
+# ... plus SMALL_BALL_PX2 / r^2 (px): a ball a few pixels across leaves the fit only a few dozen
+# rim pixels, and MPEG-4 blocks or a glossy highlight move it by up to 0.5 px at r = 5 px (0.08
+# px at r = 5, 0.02 px at r = 10; set from the same sweep after the analytic Jacobian, where two
+# 5 px scenarios had |z| 3.1 and 4.1 without it).
+SMALL_BALL_PX2 = 2.0
 UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
     ratio = 0.0 if blur_px is None else blur_px / radius_px
-    return SYSTEMATIC_PX + BLUR_TERM * ratio**4
+    return SYSTEMATIC_PX + BLUR_TERM * ratio**4 + SMALL_BALL_PX2 / radius_px**2
 
 
 class RadiusFit(NamedTuple):
