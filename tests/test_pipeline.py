@@ -321,11 +321,11 @@ def test_run_passes_progress_to_propagation_and_figures(tmp_path, demo, monkeypa
     assert seen == {"propagate": True, "figures": True}
 
 
-def test_grid_run_draws_its_joint_posterior_from_the_grid_file_with_a_spare_core(
+def test_grid_run_draws_its_joint_posterior_from_the_grid_with_a_spare_core(
         demo, tmp_path, monkeypatch):
-    """With a spare core the posterior's files are written by a forked copy while the run goes
-    on, but not the grid sampler's grid.npz, which the joint-posterior figure reads: that
-    figure still shows the grid's exact density (not a KDE of the draws)."""
+    """With a spare core the posterior's files (grid.npz included) are written by a forked
+    copy while the run goes on: the joint-posterior figure still shows the grid's exact
+    density (from the run's own grid, not a KDE of the draws)."""
     import bouncebayes._background
     import bouncebayes.plots._posterior as post
 

@@ -244,13 +244,11 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     result = infer(experiment, trials, **settings)
     times["inference"] = time.perf_counter() - start
 
-    # posterior.nc and summary.json are read by no later stage: a spare core writes them
-    # (its import of the NetCDF stack included) while this process goes on (``background``
-    # waits for it before the run folder is stamped and committed). Not the grid sampler's
-    # grid.npz, which the joint-posterior figure reads: then all are written here first.
-    grid = getattr(result.draws.info, "grid", None)
-    background.enter_context(in_background(lambda: write_outputs(result, stage),
-                                           enabled=grid is None))
+    # posterior.nc, summary.json (and grid.npz) are read by no later stage, which has them in
+    # memory: a spare core writes them (its import of the NetCDF stack included) while this
+    # process goes on (``background`` waits for it before the run folder is stamped and
+    # committed)
+    background.enter_context(in_background(lambda: write_outputs(result, stage)))
 
     start = _stage(3, "propagation of the posterior", log)
     prop = propagate(result, progress=settings["progress"])

@@ -296,12 +296,11 @@ class BounceModel:
             out[:] = 0.0
             bad[:] = True
             return out, bad
-        _, _, x_max, gamma_max, kv = self._tables
+        main, _, x_max, gamma_max, kv = self._tables
         nc = self.n_conditions
         speed, angle, log_norm = (np.ascontiguousarray(a, dtype=float).reshape(nc)
                                   for a in (speed, angle, log_norm))
         icov = np.ascontiguousarray(inverse_covariance, dtype=float).reshape(nc, 3)
-        main = self._tables[0]
         _fast.gaussian_grid(mu, eta, cond, cond_rows, self.inputs.ball, self.bounds, main,
                             x_max, gamma_max, kv, speed, angle, icov, log_norm, out, bad)
         return out, bad

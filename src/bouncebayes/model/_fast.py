@@ -65,7 +65,7 @@ NG = TABLE_NODES[1]  # the kernels are written for eight gravity terms
 # The kernels read the main table in MAIN_PIECES equal pieces of the damping axis, each a
 # Chebyshev series of NX terms in the piece's own variable (gravity untouched): the 24-term
 # series re-expanded exactly, piece by piece (:func:`_main_pieces`), which reproduces it to
-# ~3e-12 (tests/test_model_fast.py) for a third of the multiply-adds of a bounce (8 x 8 terms a
+# ~5e-12, 7e-11 for Tsuji's law (tests/test_model_fast.py) for a third of the multiply-adds of a bounce (8 x 8 terms a
 # quantity instead of 24 x 8). Six gravity terms in the pieces would leave ~1e-7: gravity stays.
 MAIN_PIECES = 32
 NX = 8
@@ -154,8 +154,8 @@ def _gravity_first(coef: np.ndarray) -> np.ndarray:
 def _main_pieces(coef: np.ndarray) -> np.ndarray:
     """The main table's damping axis in MAIN_PIECES equal pieces of NX Chebyshev terms each:
     (piece, quantity, NX, n_gravity). Each gravity coefficient's series in the damping variable
-    is evaluated at the piece's NX Chebyshev nodes and interpolated there (exact for the
-    series' smooth pieces to ~3e-12; no new ODE solutions)."""
+    is evaluated at the piece's NX Chebyshev nodes and interpolated there (to ~5e-12 of the
+    24-term series, 7e-11 for Tsuji's law; no new ODE solutions)."""
     nodes = _cheb_nodes(NX)
     basis_inv = np.linalg.inv(np.polynomial.chebyshev.chebvander(nodes, NX - 1))
     out = np.empty((MAIN_PIECES, coef.shape[0], NX, coef.shape[2]))

@@ -31,9 +31,13 @@ def _units(result, names) -> str:
 
 
 def joint_density(result, grid_file=None):
-    """Density of the first two parameters on a grid: the grid sampler's (exact), or a binned
-    KDE of all draws over robust limits. Returns names, axes, density and its source."""
+    """Density of the first two parameters on a grid: the grid sampler's (exact; the run's own,
+    else ``grid_file``, its grid.npz), or a binned KDE of all draws over robust limits.
+    Returns names, axes, density and its source."""
     names = result.names[:2]
+    grid = getattr(result.draws.info, "grid", None)  # None when reloaded from a run folder
+    if grid is not None and len(result.names) == 2:
+        return names, *grid.centres, grid.density, "grid quadrature"
     if grid_file is not None and len(result.names) == 2:
         g = np.load(grid_file)
         return names, g["centres_0"], g["centres_1"], g["density"], "grid quadrature"
