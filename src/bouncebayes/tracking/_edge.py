@@ -292,17 +292,17 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
             return None
         q = np.clip(q, lo + 1e-9, hi - 1e-9)
 
-        model = _Model(q, ~fixed, px)
+        def solve(px, x0, q=q):
+            model = _Model(q, ~fixed, px)
+            return least_squares(model.res, x0, jac=model.jac, bounds=(lo[~fixed], hi[~fixed]),
+                                 x_scale=0.05, xtol=XTOL, ftol=FTOL, max_nfev=MAX_NFEV)
+
         try:
-            fit = least_squares(model.res, q[~fixed], jac=model.jac,
-                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=XTOL,
-                                ftol=FTOL, max_nfev=MAX_NFEV)
+            fit = solve(px, q[~fixed])
+            # again with the pixels the smooth model cannot follow left out
             scale = 1.4826 * float(np.median(np.abs(fit.fun))) + 1e-9
             px = px._replace(weight=(np.abs(fit.fun) <= 4.0 * scale).astype(np.float64))
-            model = _Model(q, ~fixed, px)
-            fit = least_squares(model.res, fit.x, jac=model.jac,
-                                bounds=(lo[~fixed], hi[~fixed]), x_scale=0.05, xtol=XTOL,
-                                ftol=FTOL, max_nfev=MAX_NFEV)
+            fit = solve(px, fit.x)
         except (ValueError, np.linalg.LinAlgError):
             return None
         q[~fixed] = fit.x
