@@ -30,6 +30,7 @@ from ._closed_form import HERTZ_CONTACT_TIME_CONSTANT
 from ._config import LAW_PARAMETERS, Ball
 from ._domain import PARAMETER_DOMAINS, parameter_domain
 from ._laws import restitution_damping_ratio
+from ._vmath import cbrt, root5, sincos_deg
 
 INPUT_NAMES = ("mu", "eta", "speed", "angle", "spin", "inclination", "youngs_modulus", "gravity",
                "tangential_stiffness_ratio")
@@ -211,7 +212,6 @@ def valid(values, bounds, i):
     return True
 
 
-DEG = math.pi / 180.0
 
 
 @njit(cache=True)
@@ -232,9 +232,9 @@ def all_valid(values, bounds):
 @njit(cache=True, inline="always")
 def gravity_parts(values, i):
     """Tangential and normal gravity (gx, gy) of element ``i``."""
-    incl = at(values[I_INCL], i) * DEG
+    sin, cos = sincos_deg(at(values[I_INCL], i))
     g = at(values[I_G], i)
-    return g * math.sin(incl), g * math.cos(incl)
+    return g * sin, g * cos
 
 
 @njit(cache=True, inline="always")
@@ -242,10 +242,17 @@ def element_with(values, ball, i, gx, gy):
     """Derived quantities of element ``i`` whose gravity components are (gx, gy): (mu, eta, k,
     gx, gy, u0, vn, w0) with the incident normal speed ``vn`` > 0 (towards the plane) and the
     Hertz stiffness ``k``."""
-    angle = at(values[I_ANGLE], i) * DEG
-    speed = at(values[I_SPEED], i)
+    u0, vn = incident_velocity(at(values[I_SPEED], i), at(values[I_ANGLE], i))
     return (at(values[I_MU], i), at(values[I_ETA], i), ball[B_KFAC] * at(values[I_E], i), gx,
-            gy, speed * math.sin(angle), speed * math.cos(angle), at(values[I_SPIN], i))
+            gy, u0, vn, at(values[I_SPIN], i))
+
+
+@njit(cache=True, inline="always")
+def incident_velocity(speed, angle):
+    """(u0, vn): the incident tangential and normal velocities of a speed at ``angle`` degrees
+    from the normal (:func:`._vmath.sincos_deg`, which a loop of these vectorises)."""
+    sin, cos = sincos_deg(angle)
+    return speed * sin, speed * cos
 
 
 @njit(cache=True, inline="always")
@@ -267,7 +274,8 @@ def law_scales(law, m, k, eta, gy, vn):
         d_star = vn * math.sqrt(m / k)
         damping = 2.0 * eta
     else:
-        d_star = (m * vn * vn / k) ** 0.4
+        z = root5(m * vn * vn / k)  # delta* = z^2 (the vectorisable root: _vmath)
+        d_star = z * z
         if law == K.LAW_KELVIN_VOIGT:
             damping = eta * (d_star / (m * vn))
         elif law == K.LAW_HUNT_CROSSLEY:
@@ -283,9 +291,9 @@ def damping_variable(law, damping):
     at separation grows like zeta^(2/3)), its fifth root for Tsuji's law (like alpha^(4/5)),
     the number itself otherwise (docs/model.md §8)."""
     if law == K.LAW_KELVIN_VOIGT:
-        return np.cbrt(damping)
+        return cbrt(damping)
     if law == K.LAW_TSUJI:
-        return damping ** 0.2
+        return root5(damping)
     return damping
 
 

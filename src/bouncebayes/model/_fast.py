@@ -47,9 +47,9 @@ import numpy as np
 from numba import njit, prange
 
 from . import _kernel as K
-from ._arrays import (B_I, B_KFAC, B_M, B_R, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPIN, LAW_CODES,
-                      all_valid, at, damping_variable, element, element_with, gravity_parts,
-                      initial_force, law_scales, unit_inputs, valid)
+from ._arrays import (B_I, B_KFAC, B_M, B_R, I_ANGLE, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPEED,
+                      I_SPIN, LAW_CODES, all_valid, at, damping_variable, element, gravity_parts,
+                      incident_velocity, initial_force, law_scales, unit_inputs, valid)
 from ._config import SolverConfig
 from ._domain import HERTZ_OVERLAP_LIMIT
 from ._ode import sample, solve_rows, solve_with_segments
@@ -189,7 +189,7 @@ def normal_table(law: str) -> NormalTable:
 # Where a built table is kept, beside numba's cached kernels; its name holds a hash of every
 # source file the table depends on (and NumPy's version), so that any change rebuilds it.
 _TABLE_SOURCES = ("_fast.py", "_kernel.py", "_ode.py", "_arrays.py", "_laws.py", "_config.py",
-                  "_domain.py", "_closed_form.py")
+                  "_domain.py", "_closed_form.py", "_vmath.py", "_outputs.py")
 
 
 def _cache_path(law: str) -> Path:
@@ -543,16 +543,19 @@ def _impulse_series(ab, ns, ppk, c):
 
 
 @njit(cache=True, inline="always")
-def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, vals, out,
-                early, n_early):
-    """Closed-form bounce of element ``i`` (gravity components gx, gy) with every output but
-    the peak friction of a ball whose slip stops before the force peak: such an element is
-    appended to ``early`` (its index and what :func:`_early_friction` needs) and its peak
-    friction left for that pass. Returns (fallback reason (> 0), 0 when it slides, -1 when it
-    rolls; the new length of ``early``)."""
+def _bounce_one(values, ball, i, gx, u0, vn, scales, j, main, x_max, gamma_max, kv, rows, tx,
+                vals, out, early, n_early):
+    """Closed-form bounce of element ``i`` (tangential gravity gx, incident velocities u0, vn;
+    its normal scales in column ``j`` of ``scales``, :func:`_block_scales`) with every output
+    but the rebound speed and angle (:func:`_block_speed_angle`) and the peak friction of a
+    ball whose slip stops before the force peak: such an element is appended to ``early`` (its
+    index and what :func:`_early_friction` needs) and its peak friction left for that pass.
+    Returns (fallback reason (> 0), 0 when it slides, -1 when it rolls; the new length of
+    ``early``)."""
     r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
-    mu, eta, k, gx, gy, u0, vn, w0 = element_with(values, ball, i, gx, gy)
-    d_star, t_star, damping, x, gamma = normal_scales(m, k, eta, gy, vn, kv)
+    mu, w0 = at(values[I_MU], i), at(values[I_SPIN], i)
+    d_star, damping, x = scales[S_DSTAR, j], scales[S_DAMPING, j], scales[S_X, j]
+    t_star, gamma = d_star / vn, scales[S_GY, j] * d_star / (vn * vn)  # as law_scales
     if not (x <= x_max and gamma <= gamma_max):
         return FB_DOMAIN, n_early
     piece, ux = main_piece(x, x_max)
@@ -580,11 +583,9 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
             e[E_MU], e[E_PPK], e[E_DAMPING] = mu, vals[T_PPK], damping
             e[E_FSCALE] = f_scale
             n_early += 1
-    vn_out = vals[T_E] * vn
-    out[O_SPEED, i], out[O_ANGLE, i] = speed_angle(u, vn_out)
     out[O_SPIN, i] = w
     out[O_U, i] = u
-    out[O_VN, i] = vn_out
+    out[O_VN, i] = vals[T_E] * vn
     out[O_TC, i] = tc
     out[O_FN, i] = fn_peak
     out[O_FT, i] = ft_peak
@@ -593,6 +594,66 @@ def _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max, kv, rows, tx, v
     out[O_TPK, i] = vals[T_TPK] * t_star
     out[O_STEPS, i] = 0.0
     return (FB_NONE if phase != 0.0 else -1), n_early  # -1: solved, rolling
+
+
+# A block's inputs and normal scales (:func:`bounce_range`), one row each.
+S_SPEED, S_ANGLE, S_K, S_ETA, S_GX, S_GY, S_U0, S_VN, S_DSTAR, S_DAMPING, S_X = range(11)
+N_SCALES = 11
+
+
+@njit(cache=True, inline="always")
+def _block_inputs(values, ball, shared_gravity, gx, gy, i0, n, scales):
+    """The inputs of elements [i0, i0 + n) that :func:`_block_scales` needs, gathered into
+    rows of ``scales`` (the arrays may hold one value for all elements)."""
+    for j in range(n):
+        i = i0 + j
+        if not shared_gravity:
+            gx, gy = gravity_parts(values, i)
+        scales[S_SPEED, j], scales[S_ANGLE, j] = at(values[I_SPEED], i), at(values[I_ANGLE], i)
+        scales[S_K, j] = ball[B_KFAC] * at(values[I_E], i)
+        scales[S_ETA, j] = at(values[I_ETA], i)
+        scales[S_GX, j], scales[S_GY, j] = gx, gy
+
+
+@njit(cache=True, error_model="numpy")
+def _block_scales(m, kv, n, scales):
+    """The incident velocities and normal scales of a block's elements (``element_with`` and
+    ``normal_scales``, the same arithmetic; t* and the gravity number, one division each, are
+    left to the element's own pass): plain arithmetic and the functions of :mod:`._vmath`
+    over rows taken as 1-D arrays, so that the loop compiles to vector code (the reason for
+    the block's passes; tests/test_model_vmath.py checks that it does). One loop per law, the
+    law's code a constant in each: with the law's branches inside, or with more rows (the
+    compiler's checks that they do not overlap grow), the compiler keeps the loop scalar."""
+    a, b, c, d = scales[S_SPEED], scales[S_ANGLE], scales[S_K], scales[S_ETA]
+    e, f, g, h, i = scales[S_U0], scales[S_VN], scales[S_DSTAR], scales[S_DAMPING], scales[S_X]
+    if kv == K.LAW_KELVIN_VOIGT:
+        _scales_loop(m, K.LAW_KELVIN_VOIGT, n, a, b, c, d, e, f, g, h, i)
+    elif kv == K.LAW_HUNT_CROSSLEY:
+        _scales_loop(m, K.LAW_HUNT_CROSSLEY, n, a, b, c, d, e, f, g, h, i)
+    elif kv == K.LAW_LINEAR:
+        _scales_loop(m, K.LAW_LINEAR, n, a, b, c, d, e, f, g, h, i)
+    else:
+        _scales_loop(m, K.LAW_TSUJI, n, a, b, c, d, e, f, g, h, i)
+
+
+@njit(cache=True, inline="always")
+def _scales_loop(m, law, n, speed, angle, k, eta, u0_out, vn_out, d_out, damping_out, x_out):
+    for j in range(n):
+        u0, vn = incident_velocity(speed[j], angle[j])
+        d_star, t_star, damping, x, gamma = normal_scales(m, k[j], eta[j], 0.0, vn, law)
+        u0_out[j], vn_out[j] = u0, vn
+        d_out[j], damping_out[j], x_out[j] = d_star, damping, x
+
+
+@njit(cache=True, error_model="numpy")
+def _block_speed_angle(out, i0, n):
+    """Rebound speed and angle of elements [i0, i0 + n) from their velocities (vector code, as
+    :func:`_block_scales`; NaN where the element failed or waits for the ODE solver, whose
+    results replace them)."""
+    u, vn = out[O_U, i0:i0 + n], out[O_VN, i0:i0 + n]
+    speed, angle = out[O_SPEED, i0:i0 + n], out[O_ANGLE, i0:i0 + n]
+    for j in range(n):
+        speed[j], angle[j] = speed_angle(u[j], vn[j])
 
 
 # What the second pass of :func:`bounce_range` needs of a ball whose slip stops before the
@@ -689,17 +750,20 @@ def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
         e[E_SIGMA] = _impulse_force(ab[k], ns, 2.0 * e[E_SIGMA] - 1.0, tx)[1]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_max, gamma_max,
                  kv, start, stop, out, status, rolling, flags, fallback):
     """Full closed-form bounces of elements [start, stop): outputs, status, flags (Hertz
     validity, closed form) and fallback reasons; returns (invalid, fallback) counts.
     ``check_each``: whether elements may lie outside their bounds (see ``all_valid``).
 
-    In blocks of ``BLOCK`` elements, two passes: every output of every element (one straight
-    loop body), then the peak friction of the balls whose slip stops before the force peak (a
-    third of the prior box, each a root search in the compression table), so that the long
-    branch does not sit in the loop that every element runs through."""
+    In blocks of ``BLOCK`` elements, passes: the derived inputs, the normal scales (vector
+    code), every other output of every element (one straight loop body), rebound speed and
+    angle (vector code), then the peak friction of the balls whose slip stops before the force
+    peak (a third of the prior box, each a root search in the compression table), so that the
+    long branch does not sit in the loop that every element runs through. (``error_model``
+    "numpy": a division by zero would give inf or NaN rather than raise, which no input in
+    bounds reaches; without it every division carries a test that keeps the loops scalar.)"""
     rows = np.empty(N_TABLE * NX)
     tx = np.empty(max(NX, COMPRESSION_NODES[2] + 2))  # also the compression series' basis
     vals = np.empty(N_TABLE)
@@ -708,13 +772,19 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
     early = np.empty((BLOCK, N_EARLY))  # one row per ball: its fields side by side
     sel = np.empty(BLOCK, dtype=np.int64)
     counts = np.empty(comp.shape[0] + 1, dtype=np.int64)
+    scales = np.empty((N_SCALES, BLOCK))
     limit = HERTZ_OVERLAP_LIMIT * ball[B_R]
     shared_gravity = values[I_INCL].shape[0] == 1 and values[I_G].shape[0] == 1
     gx, gy = gravity_parts(values, 0)
     n_invalid = n_fallback = 0
     for block in range(start, stop, BLOCK):
+        n_block = min(block + BLOCK, stop) - block
         n_early = 0
-        for i in range(block, min(block + BLOCK, stop)):
+        if closed_form:
+            _block_inputs(values, ball, shared_gravity, gx, gy, block, n_block, scales)
+            _block_scales(ball[B_M], kv, n_block, scales)
+        for j in range(n_block):
+            i = block + j
             reason = FB_ODE
             if check_each and not valid(values, bounds, i):
                 fill_failed(out, i, status, K.ST_INVALID, rolling, flags)
@@ -722,10 +792,9 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
                 n_invalid += 1
                 continue
             if closed_form:
-                if not shared_gravity:
-                    gx, gy = gravity_parts(values, i)
-                reason, n_early = _bounce_one(values, ball, i, gx, gy, main, x_max, gamma_max,
-                                              kv, rows, tx, vals, out, early, n_early)
+                reason, n_early = _bounce_one(
+                    values, ball, i, scales[S_GX, j], scales[S_U0, j], scales[S_VN, j], scales,
+                    j, main, x_max, gamma_max, kv, rows, tx, vals, out, early, n_early)
             if reason > 0:
                 fill_failed(out, i, status, K.ST_OK, rolling, flags)
                 n_fallback += 1
@@ -736,6 +805,7 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
             rolling[i] = reason < 0
             flags[0, i] = out[O_DMAX, i] <= limit
             flags[1, i] = True
+        _block_speed_angle(out, block, n_block)
         _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx, work, ab,
                         out)
     return n_invalid, n_fallback
@@ -885,14 +955,19 @@ def _rebound_one(theta, r, cols, cond, c, cond_rows, ball, main, x_max, gamma_ma
 def _rebound_row(theta, r, cols, cond, cond_rows, ball, main, x_max, gamma_max, kv, rows, tx,
                  stage, codes, out):
     """:func:`_rebound_one` for every condition of row ``r`` when the modulus is fixed, in
-    three passes over the conditions (damping variable, table, friction and output): short
-    loop bodies whose iterations the processor overlaps, where one long body per bounce is a
-    chain of dependent steps. The arithmetic is exactly that of :func:`_rebound_one`."""
+    four passes over the conditions (damping variable, table, friction, speed and angle):
+    short loop bodies whose iterations the processor overlaps, where one long body per bounce
+    is a chain of dependent steps; the first and the last compile to vector code
+    (:mod:`._vmath`). The arithmetic is exactly that of :func:`_rebound_one`."""
     nc = cond.shape[1]
     eta_r = theta[r, cols[1]] if cols[1] >= 0 else 0.0
-    for c in range(nc):
-        eta = eta_r if cols[1] >= 0 else cond[C_ETA, c]
-        stage[0, c] = damping_variable(kv, eta * cond[C_CZ, c])
+    x_c, cz, eta_c = stage[0], cond[C_CZ], cond[C_ETA]
+    if cols[1] >= 0:
+        for c in range(nc):
+            x_c[c] = damping_variable(kv, eta_r * cz[c])
+    else:
+        for c in range(nc):
+            x_c[c] = damping_variable(kv, eta_c[c] * cz[c])
     for c in range(nc):
         state = cond[C_STATE, c]
         x = stage[0, c]
@@ -908,6 +983,7 @@ def _rebound_row(theta, r, cols, cond, cond_rows, ball, main, x_max, gamma_max, 
             stage[1, c] = _dot(row, T_E * NX, tx, NX)
             stage[2, c] = _dot(row, T_TC * NX, tx, NX)
     for c in range(nc):
+        stage[3, c] = math.nan
         if codes[c] != 0:
             continue
         e, tc_scaled = stage[1, c], stage[2, c]
@@ -921,23 +997,30 @@ def _rebound_row(theta, r, cols, cond, cond_rows, ball, main, x_max, gamma_max, 
         if not exact:
             codes[c] = -3
             continue
-        out[RB_SPEED, r, c], out[RB_ANGLE, r, c] = speed_angle(u, e * vn)
+        stage[3, c], stage[4, c] = u, e * vn
         out[RB_SPIN, r, c] = w
         out[RB_TC, r, c] = tc
         codes[c] = -1 if phase == 0.0 else -2
+    u_c, vn_c, speed_c, angle_c = stage[3], stage[4], stage[5], stage[6]
+    for c in range(nc):
+        speed_c[c], angle_c[c] = speed_angle(u_c[c], vn_c[c])
+    for c in range(nc):
+        if codes[c] == -1 or codes[c] == -2:  # solved
+            out[RB_SPEED, r, c], out[RB_ANGLE, r, c] = speed_c[c], angle_c[c]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rebound_range(theta, cols, cond, cond_rows, ball, bounds, main, x_max, gamma_max, kv, r0,
                   r1, out, status, rolling, ok, fallback):
     """Rebounds of parameter rows [r0, r1) under every condition, into ``out[:, r, c]`` and
-    the (row, condition) arrays; marks ``fallback`` for the ODE and returns how many."""
+    the (row, condition) arrays; marks ``fallback`` for the ODE and returns how many
+    (``error_model`` "numpy", as :func:`bounce_range`, so that its passes vectorise)."""
     nc = cond.shape[1]
     rows = np.empty(2 * NX)
     tx = np.empty(NX)
     vals = np.empty(2)
     codes = np.empty(nc, dtype=np.int64)
-    stage = np.empty((3, nc))
+    stage = np.empty((7, nc))
     n_fallback = 0
     for r in range(r0, r1):
         row_ok = _row_valid(theta, r, cols, bounds)

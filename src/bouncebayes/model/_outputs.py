@@ -15,6 +15,7 @@ from numba import njit
 
 from . import _kernel as K
 from ._domain import HERTZ_OVERLAP_LIMIT
+from ._vmath import atan2
 
 (O_SPEED, O_ANGLE, O_SPIN, O_U, O_VN, O_TC, O_FN, O_FT, O_DMAX, O_DSEP, O_TPK,
  O_STEPS) = range(12)
@@ -28,8 +29,9 @@ RAD = 180.0 / math.pi
 @njit(cache=True, inline="always")
 def speed_angle(u, vn):
     """Rebound speed and angle from the normal in degrees (positive: moving forward), from the
-    tangential and outward normal velocities: the only place this conversion is made."""
-    return math.sqrt(u * u + vn * vn), math.atan2(u, vn) * RAD  # no overflow in the domain
+    tangential and outward normal velocities: the only place this conversion is made (with the
+    vectorisable ``atan2`` of :mod:`._vmath`, so that a loop of these compiles to vector code)."""
+    return math.sqrt(u * u + vn * vn), atan2(u, vn) * RAD  # no overflow in the domain
 
 
 @njit(cache=True)
