@@ -47,6 +47,7 @@ import numpy as np
 from numba import njit, prange
 
 from . import _kernel as K
+from ._vmath import root5
 from ._arrays import (B_I, B_KFAC, B_M, B_R, I_ANGLE, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPEED,
                       I_SPIN, LAW_CODES, all_valid, at, damping_variable, element, gravity_parts,
                       incident_velocity, initial_force, law_scales, unit_inputs, valid)
@@ -469,7 +470,7 @@ def _first_guess(ab, ns, target, scale):
         sign = -sign
     if not pi_end > 0.0:
         return 1.0
-    sigma = min(1.0, (target / pi_end) ** 0.2)
+    sigma = min(1.0, root5(target / pi_end))
     alpha = max(2.0 * scale * phi_start, 0.0)
     beta = pi_end - alpha
     if beta <= 0.0:
@@ -961,13 +962,12 @@ def _rebound_row(theta, r, cols, cond, cond_rows, ball, main, x_max, gamma_max, 
     (:mod:`._vmath`). The arithmetic is exactly that of :func:`_rebound_one`."""
     nc = cond.shape[1]
     eta_r = theta[r, cols[1]] if cols[1] >= 0 else 0.0
-    x_c, cz, eta_c = stage[0], cond[C_CZ], cond[C_ETA]
-    if cols[1] >= 0:
-        for c in range(nc):
-            x_c[c] = damping_variable(kv, eta_r * cz[c])
+    if kv == K.LAW_KELVIN_VOIGT:  # the law a constant in each loop, as in _block_scales
+        _damping_variables(K.LAW_KELVIN_VOIGT, cols[1] >= 0, eta_r, cond, nc, stage[0])
+    elif kv == K.LAW_TSUJI:
+        _damping_variables(K.LAW_TSUJI, cols[1] >= 0, eta_r, cond, nc, stage[0])
     else:
-        for c in range(nc):
-            x_c[c] = damping_variable(kv, eta_c[c] * cz[c])
+        _damping_variables(K.LAW_LINEAR, cols[1] >= 0, eta_r, cond, nc, stage[0])
     for c in range(nc):
         state = cond[C_STATE, c]
         x = stage[0, c]
@@ -1007,6 +1007,19 @@ def _rebound_row(theta, r, cols, cond, cond_rows, ball, main, x_max, gamma_max, 
     for c in range(nc):
         if codes[c] == -1 or codes[c] == -2:  # solved
             out[RB_SPEED, r, c], out[RB_ANGLE, r, c] = speed_c[c], angle_c[c]
+
+
+@njit(cache=True, inline="always")
+def _damping_variables(law, varies, eta_r, cond, nc, x_out):
+    """The damping variable of every condition (eta the row's where it ``varies``, else each
+    condition's own), in loops that compile to vector code."""
+    cz, eta_c = cond[C_CZ], cond[C_ETA]
+    if varies:
+        for c in range(nc):
+            x_out[c] = damping_variable(law, eta_r * cz[c])
+    else:
+        for c in range(nc):
+            x_out[c] = damping_variable(law, eta_c[c] * cz[c])
 
 
 @njit(cache=True, error_model="numpy")
