@@ -1,24 +1,29 @@
-"""Elementary functions the compiler can vectorise: cube root, fifth root, ``atan2``.
+"""Elementary functions the compiler can vectorise: cube and fifth roots, ``atan2``, and the
+sine and cosine of an angle in degrees.
 
-Why hand-written: numba calls the C library for ``np.cbrt``, ``x ** 0.4`` and
-``math.atan2``, one element at a time (~20-30 ns each on the development machine, a quarter of
-a closed-form bounce), and no vector maths library is available to it (the pip build of
+Why hand-written: numba calls the C library for ``np.cbrt``, ``x ** 0.4``, ``math.sin``/``cos``
+and ``math.atan2``, one element at a time (20-30 ns each on the development machine, a quarter
+of a closed-form bounce), and no vector maths library is available to it (the pip build of
 llvmlite has no SVML). These are written in plain arithmetic and bit operations with no calls
 and no branches (only selects), so that a loop over a block of elements compiles to 4-wide
-AVX2 code (``bounce_range`` runs them so, :mod:`._fast`), while the same function called on one
-element gives the same bits: every kernel of the model uses them, so the samplers' and the
-full results' numbers stay identical.
+AVX2 code (``bounce_range`` runs them so, :mod:`._fast`), while the same function called on
+one element gives the same bits. Every kernel of the model uses them, so the samplers' and
+the full results' numbers stay identical. They are compiled once each and left to LLVM to
+inline where they are used: numba's own inlining of them into every kernel tripled the
+compile time for no speed.
 
-Accuracy (tests/test_model_vmath.py, against NumPy's C library over 1e-300..1e300 and the
-special values): cube and fifth roots within 2 units in the last place, ``atan2`` within 2;
-zero, infinities and NaN as the C library gives them.
+Accuracy (tests/test_model_vmath.py, against NumPy's extended precision over 1e-307..1e308,
+the subnormals and the special values): cube and fifth roots within 1 unit in the last place,
+``atan2`` and the degree sine and cosine within 2; zero, infinities and NaN as the C library
+gives them.
 
 The roots start from the exponent and leading mantissa bits scaled like a logarithm (the
 start of fdlibm's ``cbrt``: the high word of the bits divided by the root's order, plus a
-bias; worst start ~1 % off), then take three Halley steps (cubic convergence: 3e-2 -> 2e-5 -> 1e-14 ->
-rounding). ``atan2`` is Cephes' ``atan`` (S. L. Moshier, Cephes Math Library, netlib): the ratio
-reduced to [0, 1] and further to |t| <= 0.66 by t -> (t - 1) / (t + 1), then a 4/5 rational
-function (relative error ~1e-17 on that interval).
+bias; worst start ~3 % off), then take three Halley steps (cubic convergence: 3e-2 -> 2e-5 ->
+1e-14 -> rounding), each written as a correction so that its rounding is relative to the
+correction. ``atan2`` is Cephes' ``atan`` (S. L. Moshier, Cephes Math Library, netlib): the
+ratio reduced to [0, 1] and further to |t| <= 0.66 by t -> (t - 1) / (t + 1), then a 4/5
+rational function (relative error ~1e-17 on that interval).
 """
 
 from __future__ import annotations
@@ -86,7 +91,7 @@ _bits: Any = intrinsic(_bits_typer)
 _float: Any = intrinsic(_float_typer)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _start(t, order, bias):
     """About t ** (1 / order) for t > 0 (normal): the high word of t's bits divided by
     ``order`` plus ``bias`` as the high word of the result (integer <-> float conversions
@@ -96,7 +101,7 @@ def _start(t, order, bias):
     return _float((_bits(yh + _TWO52) & _LOW32) << 32)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _halley3(y, t):
     """One Halley step towards t ** (1/3) (y > 0), y (y^3 + 2t) / (2y^3 + t) written as a
     correction, whose rounding is relative to the correction, not to y."""
@@ -104,7 +109,7 @@ def _halley3(y, t):
     return y - y * (y3 - t) / (2.0 * y3 + t)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _halley5(z, t):
     """One Halley step towards t ** (1/5) (z > 0), z (4z^5 + 6t) / (6z^5 + 4t) written as a
     correction."""
@@ -113,7 +118,7 @@ def _halley5(z, t):
     return z - z * (z5 - t) / (3.0 * z5 + 2.0 * t)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cbrt(a):
     """The cube root of ``a`` (any sign; 0, +-inf and NaN as given)."""
     t = abs(a)
@@ -127,7 +132,7 @@ def cbrt(a):
     return math.copysign(y, a) if normal else a
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def root5(a):
     """The fifth root of ``a`` >= 0 (0, inf and NaN as given; NaN for a < 0)."""
     normal = (a > 0.0) & (a < math.inf)
@@ -141,7 +146,7 @@ def root5(a):
     return z if a >= 0.0 else math.nan
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def atan2(y, x):
     """The angle of (x, y) in (-pi, pi], as ``math.atan2`` (signed zeros and infinities
     aside: +-0 and inf arguments give the C library's values up to the sign of zero)."""
@@ -174,7 +179,7 @@ _C1, _C2, _C3, _C4, _C5, _C6 = (4.16666666666666019037e-02, -1.38888888888741095
 _DEG = math.pi / 180.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def sincos_deg(angle):
     """(sin, cos) of ``angle`` in degrees. The angle is reduced exactly in degrees, to
     d = angle - 90 q in [-45, 45] (exact: Sterbenz's lemma), so that no multiple of pi is
