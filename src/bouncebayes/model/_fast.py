@@ -28,6 +28,9 @@ each quantity is a dot product with the Chebyshev basis in the damping variable
 (``x_values``). Samplers evaluate the same incidence conditions over and over, so
 :class:`~bouncebayes.model.BounceModel` contracts the gravity axis once per condition and piece
 (``prepare_conditions``) and a bounce then costs one cube root and two 8-term dot products.
+The elementary functions (the roots of the scales, the incidence's sine and cosine, the
+rebound angle's ``atan2``) are those of :mod:`._vmath`, taken over a block of elements at a
+time in loops that compile to vector code (``bounce_range``'s passes).
 
 Where the closed form is not exact (on a slope when the slip stops or might stop, when the ball
 starts rolling on a slope) or the table does not reach (strong damping, slow impacts), the
@@ -47,7 +50,6 @@ import numpy as np
 from numba import njit, prange
 
 from . import _kernel as K
-from ._vmath import root5
 from ._arrays import (B_I, B_KFAC, B_M, B_R, I_ANGLE, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPEED,
                       I_SPIN, LAW_CODES, all_valid, at, damping_variable, element, gravity_parts,
                       incident_velocity, initial_force, law_scales, unit_inputs, valid)
@@ -57,6 +59,7 @@ from ._ode import sample, solve_rows, solve_with_segments
 from ._outputs import (O_ANGLE, O_DMAX, O_DSEP, O_FN, O_FT, O_SPEED, O_SPIN, O_STEPS,
                        O_TC, O_TPK, O_U, O_VN, RB_ANGLE, RB_SPEED, RB_SPIN, RB_TC, fill_failed,
                        speed_angle)
+from ._vmath import root5
 
 # Table quantities, all in scaled units of the unit normal problem.
 T_E, T_TC, T_FN, T_DMAX, T_DSEP, T_TPK, T_PPK = range(7)
