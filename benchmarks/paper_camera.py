@@ -92,6 +92,7 @@ def main(argv=None) -> dict:
                                      "sigma_px": sigma, "frames": int(ok.sum()),
                                      "whole_frames": int(whole.sum()),
                                      "found_whole": int((tr.found & whole).sum()),
+                                     "refined": int((tr.refined & ok).sum()),
                                      "rms_px": round(rms(err), 4),
                                      "rms_no_offset_px": round(rms(err - off), 4),
                                      "offset_px": [round(float(v), 4) for v in off],

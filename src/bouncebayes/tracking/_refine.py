@@ -40,10 +40,9 @@ N_ITER = 2           # Gauss-Newton steps per frame (from the centroid: 2 and 3 
 #                      accuracy, 1 less and 4 no better; benchmarks/paper_camera.py)
 RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
 REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
-N_LIN = 7            # linear coefficients: b_0..b_3, o_0..o_2
+N_LIN = 9            # linear coefficients: b_0..b_3, o_0..o_2
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
-_NZ_FLOOR = 0.05     # below it n_z's derivative (infinite at the rim) is taken as 0
 
 
 @njit(cache=True)
@@ -59,7 +58,7 @@ def _phi(z, gauss):
 
 
 @njit(cache=True)
-def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k):
+def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k, z0, dzt, gt, dgt):
     """One pixel at offset ``(du, dv)`` from the centre, into ``out[k]`` (no view of the row:
     a view per pixel costs its reference counting): ``S``, ``cos t``,
     ``sin t``, ``X``, ``Y``, ``n_z``, then ``d S``, ``dX``, ``dY``, ``d n_z``, ``d cos t``,
@@ -78,18 +77,32 @@ def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k):
     dens = gauss * _INV_SQRT_2PI * inv_s
     x, y = du * inv_r, dv * inv_r
     q2 = x * x + y * y
-    nz = math.sqrt(max(1.0 - q2, 0.0))
-    inv = 1.0 / nz if nz > _NZ_FLOOR else 0.0
+    # the blurred n_z = sqrt(u (2r - u)) / r: E[sqrt(u + e)_+] (the edge model's table) times
+    # sqrt(2 / r) sqrt(1 - u / (2 r)), and its derivative with respect to the depth u
+    depth = r - 0.5 * var_t * inv_r - rho
+    pos = (z - z0) / dzt
+    if pos >= len(gt) - 1:
+        root, droot = math.sqrt(max(depth, 0.0)), 0.5 / math.sqrt(max(depth, 1e-9))
+    else:
+        i0 = max(int(pos), 0)
+        f = min(max(pos - i0, 0.0), 1.0)
+        s_half = 1.0 / math.sqrt(inv_s)
+        root = s_half * (gt[i0] * (1.0 - f) + gt[i0 + 1] * f)
+        droot = (dgt[i0] * (1.0 - f) + dgt[i0 + 1] * f) / s_half
+    fac2 = max(1.0 - 0.5 * (r - rho) * inv_r, 1e-6)
+    fac = math.sqrt(2.0 * inv_r * fac2)
+    nz = root * fac
+    dnz_du = droot * fac - root * fac * 0.25 * inv_r / fac2
     out[k, 0] = _phi(z, gauss)
     out[k, 1], out[k, 2], out[k, 3], out[k, 4], out[k, 5] = ct, st, x, y, nz
     # the centre moves: du, dv fall by one
-    out[k, 6], out[k, 7], out[k, 8], out[k, 9] = dens * ct, -inv_r, 0.0, x * inv * inv_r
+    out[k, 6], out[k, 7], out[k, 8], out[k, 9] = dens * ct, -inv_r, 0.0, dnz_du * ct
     out[k, 10], out[k, 11] = -st * st * inv_rho, ct * st * inv_rho
-    out[k, 12], out[k, 13], out[k, 14], out[k, 15] = dens * st, 0.0, -inv_r, y * inv * inv_r
+    out[k, 12], out[k, 13], out[k, 14], out[k, 15] = dens * st, 0.0, -inv_r, dnz_du * st
     out[k, 16], out[k, 17] = ct * st * inv_rho, -ct * ct * inv_rho
     if r_free:
         out[k, 18] = dens * (1.0 + 0.5 * var_t * inv_r * inv_r)
-        out[k, 19], out[k, 20], out[k, 21] = -x * inv_r, -y * inv_r, q2 * inv_r * inv
+        out[k, 19], out[k, 20], out[k, 21] = -x * inv_r, -y * inv_r, dnz_du - 0.5 * nz * inv_r
         out[k, 22] = out[k, 23] = 0.0
 
 
@@ -97,7 +110,8 @@ _N_AUX = 24
 
 
 @njit(cache=True)
-def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter):
+def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
+               gt, dgt):
     """One frame's fit from the centre ``(cx, cy)``: ok, centre, radius."""
     h, w = frame.shape
     speed = math.hypot(vx, vy)
@@ -130,13 +144,16 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     r0, x0, y0 = r, cx, cy
     for it in range(n_iter):
         for k in range(n):
-            _pixel(pu[k] - cx, pv[k] - cy, r, base, smear2, dir_u, dir_v, r_free, aux, k)
+            _pixel(pu[k] - cx, pv[k] - cy, r, base, smear2, dir_u, dir_v, r_free, aux, k, z0,
+                   dzt, gt, dgt)
             step, ct, st = aux[k, 0], aux[k, 1], aux[k, 2]
             out = 1.0 - step
             jt[n_nl, k], jt[n_nl + 1, k] = step, step * aux[k, 3]
-            jt[n_nl + 2, k], jt[n_nl + 3, k] = step * aux[k, 4], step * aux[k, 5]
-            jt[n_nl + 4, k] = out
-            jt[n_nl + 5, k], jt[n_nl + 6, k] = out * ct, out * st
+            jt[n_nl + 2, k], jt[n_nl + 3, k] = step * aux[k, 4], aux[k, 5]
+            jt[n_nl + 4, k] = step * aux[k, 3] * aux[k, 4]
+            jt[n_nl + 5, k] = step * (aux[k, 3] * aux[k, 3] - aux[k, 4] * aux[k, 4])
+            jt[n_nl + 6, k] = out
+            jt[n_nl + 7, k], jt[n_nl + 8, k] = out * ct, out * st
             res[k] = grey[k] - back[k] * out
         if it == 0:  # the linear coefficients at the starting centre
             ok, beta = _solve(*_normal(jt, res, n_nl))
@@ -148,15 +165,18 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
             for q in range(N_LIN):
                 e -= beta[q] * jt[n_nl + q, k]
             res[k] = e
-            d_step = (beta[0] + beta[1] * aux[k, 3] + beta[2] * aux[k, 4] + beta[3] * aux[k, 5]
-                      - back[k]
-                      - beta[4] - beta[5] * ct - beta[6] * st)  # d model / d S
+            x, y, nz = aux[k, 3], aux[k, 4], aux[k, 5]
+            d_step = (beta[0] + beta[1] * x + beta[2] * y
+                      + beta[4] * x * y + beta[5] * (x * x - y * y) - back[k]
+                      - beta[6] - beta[7] * ct - beta[8] * st)  # d model / d S
             for p in range(n_nl):
                 o = 6 + 6 * p
+                dx, dy, dnz = aux[k, o + 1], aux[k, o + 2], aux[k, o + 3]
                 jt[p, k] = (d_step * aux[k, o]
-                            + step * (beta[1] * aux[k, o + 1] + beta[2] * aux[k, o + 2]
-                                      + beta[3] * aux[k, o + 3])
-                            + (1.0 - step) * (beta[5] * aux[k, o + 4] + beta[6] * aux[k, o + 5]))
+                            + beta[3] * dnz + step * (beta[1] * dx + beta[2] * dy
+                                      + beta[4] * (dx * y + x * dy)
+                                      + beta[5] * 2.0 * (x * dx - y * dy))
+                            + (1.0 - step) * (beta[7] * aux[k, o + 4] + beta[8] * aux[k, o + 5]))
         ok, delta = _solve(*_normal(jt, res, 0))
         if not ok or abs(delta[0]) > 3.0 or abs(delta[1]) > 3.0:
             return False, cx, cy, r
@@ -215,7 +235,8 @@ def _solve(mat, rhs):
 
 
 @njit(cache=True)
-def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter):
+def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter,
+                  z0, dzt, gt, dgt):
     """:func:`_fit_frame` on frames ``idx`` from centres ``start`` ``(len(idx), 2)`` with
     velocities ``vel`` (px per frame): ``(len(idx), 3)`` centre and radius, NaN where the fit
     failed."""
@@ -223,7 +244,8 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
     for n in range(len(idx)):
         k = idx[n]
         ok, cx, cy, rr = _fit_frame(frames[k], bg, gains[k], start[n, 0], start[n, 1],
-                                    vel[n, 0], vel[n, 1], r, sigma, exposure, r_free, n_iter)
+                                    vel[n, 0], vel[n, 1], r, sigma, exposure, r_free, n_iter,
+                                    z0, dzt, gt, dgt)
         if ok:
             out[n, 0], out[n, 1], out[n, 2] = cx, cy, rr
     return out
@@ -256,12 +278,17 @@ def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre
     vel = np.ascontiguousarray(vel, np.float64)
     sub = np.unique(np.linspace(0, len(idx) - 1, min(RADIUS_FRAMES, len(idx))).round()
                     .astype(np.int64))
+    from ._edge import _sqrt_table
+
+    zt, gt = _sqrt_table()
+    table = (float(zt[0]), float(zt[1] - zt[0]), gt, np.gradient(gt, zt))
     first = refine_frames(frames, bg64, gains, idx[sub].astype(np.int64), start[sub], vel[sub],
-                          float(fit.radius), float(fit.sigma), float(fit.exposure), True, N_ITER)
+                          float(fit.radius), float(fit.sigma), float(fit.exposure), True, N_ITER,
+                          *table)
     radii = first[:, 2][~np.isnan(first[:, 2])]
     r = float(np.median(radii)) if len(radii) >= 3 else float(fit.radius)
     out = refine_frames(frames, bg64, gains, idx.astype(np.int64), start, vel, r,
-                        float(fit.sigma), float(fit.exposure), False, N_ITER)
+                        float(fit.sigma), float(fit.exposure), False, N_ITER, *table)
     ok = ~np.isnan(out[:, 0])
     centre[idx[ok]] = out[ok, :2]
     done[idx[ok]] = True
