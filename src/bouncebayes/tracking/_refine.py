@@ -6,24 +6,30 @@ so the rim's grey level extrapolated from them falls to about the background and
 becomes a thresholded mask (docs/tracking.md, the paper's camera). Here every frame's centre
 is fitted instead, with the ball's blur and exposure from the edge model (:mod:`._edge`) held::
 
-    I_i = B_i (1 - S_i) + S_i (b_0 + b_1 X_i + b_2 Y_i + b_3 n_z,i)
-          + (1 - S_i) (o_0 + o_1 cos t_i + o_2 sin t_i)
+    I_i = B_i (1 - S_i) + S_i (b_0 + b_1 X_i + b_2 Y_i + b_4 X_i Y_i + b_5 (X_i^2 - Y_i^2))
+          + b_3 N_i + (1 - S_i) (o_0 + o_1 cos t_i + o_2 sin t_i)
 
 ``S`` the blurred step of the rim (as :mod:`._edge`: a Gaussian lens blur, the pixel's width
 and the exposure's smear along the direction of motion, with the curvature shift of a blurred
-circle), ``X, Y`` the offset from the centre over the radius, ``n_z = sqrt(1 - X^2 - Y^2)``
-the sphere's normal towards the camera (Lambert shading under a light from any side, to first
-order, and limb darkening), ``o`` the local background level on each side. The linear
-coefficients ``b, o`` and the centre (and, in a first pass on a few frames, the radius) by
-Gauss-Newton, a few steps from the coverage centroid: ``(2 + 7)`` parameters, ~200 pixels.
+circle), ``X, Y`` the pixel's offset from the centre over the radius, ``N`` the blurred normal
+towards the camera ``n_z = sqrt(u (2r - u)) / r`` (``u`` the depth inside the rim; blurred
+through the edge model's table of ``E[sqrt(u + e)_+]``), ``t`` the polar angle and ``o`` the
+local background level on each side: the edge model's shading (:mod:`._edge`, the spherical
+harmonics of the normal to order 2) cut to the terms that matter at this size, so that side
+light and limb darkening do not pull the centre. The linear coefficients and the centre by
+Gauss-Newton, ``N_ITER`` steps from the coverage centroid, on the ~150 pixels within about two
+blurs of the rim; the radius first (free, with the centre, on ``RADIUS_FRAMES`` frames spread
+over the video, their median then held).
 
-Why not the edge model itself on every frame: ~7 ms a frame through ``least_squares`` (35x the
-224 x 64 speed target's budget); this model, compiled, costs ~10-20 us a frame. Why its radius
-is fitted again: the edge model's radius of a 5 px ball is off by up to ~18 % under MPEG-4
-(docs/tracking.md section 3) and a radius off by that much moves these centres (measured over
-the 32 clips of ``benchmarks/paper_camera.py``: mean RMS 0.154 px with the edge model's radius
-held, 0.118 with the true one, 0.144 with the median radius of this fit). Written by hand
-because no library fits a blurred disk per frame at this cost.
+Measured over the 32 clips of ``benchmarks/paper_camera.py`` (radius 5 px; RMS error of the
+centres, mean over clips): the coverage centroid with the edge fits' offset 0.224 px; this
+fit 0.120 px. Its radius is its own: with the edge model's radius held (off by up to 18 % at
+this size under MPEG-4, docs/tracking.md section 3) 0.154 px in an earlier version of the fit
+where its own radius gave 0.144 and the true one 0.118; and ``n_z`` unblurred biased that
+radius ~0.3 px small at a blur of 0.6 px, pulling the centres towards the lit side by up to
+0.18 px. Why not the edge model itself on every frame: ~7 ms a frame through
+``least_squares`` (35x the 224 x 64 speed target's budget); this fit, compiled, ~25 us. Written
+by hand because no library fits a blurred disk per frame at this cost.
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ N_ITER = 2           # Gauss-Newton steps per frame (from the centroid: 2 and 3 
 #                      accuracy, 1 less and 4 no better; benchmarks/paper_camera.py)
 RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
 REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
-N_LIN = 9            # linear coefficients: b_0..b_3, o_0..o_2
+N_LIN = 9            # linear coefficients: b_0..b_5, o_0..o_2
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
 
@@ -59,10 +65,11 @@ def _phi(z, gauss):
 
 @njit(cache=True)
 def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k, z0, dzt, gt, dgt):
-    """One pixel at offset ``(du, dv)`` from the centre, into ``out[k]`` (no view of the row:
-    a view per pixel costs its reference counting): ``S``, ``cos t``,
-    ``sin t``, ``X``, ``Y``, ``n_z``, then ``d S``, ``dX``, ``dY``, ``d n_z``, ``d cos t``,
-    ``d sin t`` with respect to ``cx``, then ``cy``, then ``r`` (where ``r_free``)."""
+    """One pixel at offset ``(du, dv)`` from the centre, into row ``k`` of ``out``: ``S``,
+    ``cos t``, ``sin t``, ``X``, ``Y``, ``N``, then the derivatives of ``S``, ``X``, ``Y``,
+    ``N``, ``cos t``, ``sin t`` with respect to ``cx``, then ``cy``, then ``r`` (where
+    ``r_free``). ``z0, dzt, gt, dgt``: the table of ``G(z) = E[sqrt(z + Z)_+]`` (grid start,
+    step, values, derivative)."""
     rho = max(math.sqrt(du * du + dv * dv), 1e-9)
     inv_rho, inv_r = 1.0 / rho, 1.0 / r
     ct, st = du * inv_rho, dv * inv_rho
@@ -76,10 +83,9 @@ def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k, z0, dzt, gt, d
     gauss = math.exp(-0.5 * z * z)
     dens = gauss * _INV_SQRT_2PI * inv_s
     x, y = du * inv_r, dv * inv_r
-    q2 = x * x + y * y
     # the blurred n_z = sqrt(u (2r - u)) / r: E[sqrt(u + e)_+] (the edge model's table) times
     # sqrt(2 / r) sqrt(1 - u / (2 r)), and its derivative with respect to the depth u
-    depth = r - 0.5 * var_t * inv_r - rho
+    depth = z / inv_s
     pos = (z - z0) / dzt
     if pos >= len(gt) - 1:
         root, droot = math.sqrt(max(depth, 0.0)), 0.5 / math.sqrt(max(depth, 1e-9))
@@ -89,10 +95,9 @@ def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k, z0, dzt, gt, d
         s_half = 1.0 / math.sqrt(inv_s)
         root = s_half * (gt[i0] * (1.0 - f) + gt[i0 + 1] * f)
         droot = (dgt[i0] * (1.0 - f) + dgt[i0 + 1] * f) / s_half
-    fac2 = max(1.0 - 0.5 * (r - rho) * inv_r, 1e-6)
-    fac = math.sqrt(2.0 * inv_r * fac2)
+    fac = math.sqrt(max(inv_r + rho * inv_r * inv_r, 1e-12))  # sqrt(2/r) sqrt(1 - (r-rho)/2r)
     nz = root * fac
-    dnz_du = droot * fac - root * fac * 0.25 * inv_r / fac2
+    dnz_du = droot * fac - root * 0.5 * inv_r * inv_r / fac  # u = r - rho: d rho = -d u
     out[k, 0] = _phi(z, gauss)
     out[k, 1], out[k, 2], out[k, 3], out[k, 4], out[k, 5] = ct, st, x, y, nz
     # the centre moves: du, dv fall by one
@@ -102,7 +107,9 @@ def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k, z0, dzt, gt, d
     out[k, 16], out[k, 17] = ct * st * inv_rho, -ct * ct * inv_rho
     if r_free:
         out[k, 18] = dens * (1.0 + 0.5 * var_t * inv_r * inv_r)
-        out[k, 19], out[k, 20], out[k, 21] = -x * inv_r, -y * inv_r, dnz_du - 0.5 * nz * inv_r
+        dfac_dr = -(inv_r * inv_r + 2.0 * rho * inv_r * inv_r * inv_r) / (2.0 * fac)
+        out[k, 19], out[k, 20] = -x * inv_r, -y * inv_r
+        out[k, 21] = droot * fac * (1.0 + 0.5 * var_t * inv_r * inv_r) + root * dfac_dr
         out[k, 22] = out[k, 23] = 0.0
 
 
@@ -165,7 +172,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
             for q in range(N_LIN):
                 e -= beta[q] * jt[n_nl + q, k]
             res[k] = e
-            x, y, nz = aux[k, 3], aux[k, 4], aux[k, 5]
+            x, y = aux[k, 3], aux[k, 4]
             d_step = (beta[0] + beta[1] * x + beta[2] * y
                       + beta[4] * x * y + beta[5] * (x * x - y * y) - back[k]
                       - beta[6] - beta[7] * ct - beta[8] * st)  # d model / d S
