@@ -262,13 +262,19 @@ def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre
                    method: np.ndarray, fit) -> np.ndarray:
     """Refine, in place, the centres of the frames with the ball wholly in view (``method``
     ``CENTROID``) where the ball is small (the edge model's radius ``fit.radius`` at most
-    ``SMALL_RADIUS``); returns the mask of the frames refined (a failed fit keeps its
+    ``SMALL_RADIUS``) and its fitted blur at most ``UNRELIABLE_BLUR`` of it; returns the mask of the frames refined (a failed fit keeps its
     centroid). First ``RADIUS_FRAMES`` frames spread over the video with the radius free, then
     every frame with it held at their median."""
     from ._measure import CENTROID
 
+    from ._edge import UNRELIABLE_BLUR
+
     done = np.zeros(len(frames), bool)
-    if fit is None or not fit.radius <= SMALL_RADIUS:
+    # not where the blur is a large part of the radius: there the edge model's blur trades
+    # against the shading near the rim (docs/tracking.md section 3) and this fit, holding that
+    # blur, errs more than the centroid (benchmarks/tracking_accuracy.py, radius 5 px, blur
+    # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px)
+    if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > UNRELIABLE_BLUR * fit.radius:
         return done
     idx = np.flatnonzero(method == CENTROID)
     if len(idx) < 3:
