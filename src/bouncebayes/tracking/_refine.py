@@ -47,6 +47,10 @@ N_ITER = 2           # Gauss-Newton steps per frame (from the centroid: 2 and 3 
 RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
 REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
 N_LIN = 9            # linear coefficients: b_0..b_5, o_0..o_2
+SE_FACTOR = 1.5      # the stated per-frame SD of refined centres: this times their formal SE
+#   (independent pixels; MJPEG/MPEG-4 errors are correlated between pixels, which it misses:
+#   over the 32 clips of benchmarks/paper_camera.py the centres' scatter about their mean error
+#   is 0.8-1.9x the formal SE, MPEG-4 the largest)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
 
@@ -119,17 +123,19 @@ _N_AUX = 24
 @njit(cache=True)
 def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
                gt, dgt):
-    """One frame's fit from the centre ``(cx, cy)``: ok, centre, radius."""
+    """One frame's fit from the centre ``(cx, cy)``: ok, centre, radius, and the centre's
+    formal standard errors (px: the residual's variance times the inverse normal matrix)."""
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
     smear2 = (exposure * speed) ** 2 / 12.0
     base = sigma * sigma + 1.0 / 12.0
     reach = r + REACH_PX + REACH_BLURS * math.sqrt(base + smear2)
-    u0, v0 = int(math.floor(cx - reach)), int(math.floor(cy - reach))
-    u1, v1 = int(math.ceil(cx + reach)) + 1, int(math.ceil(cy + reach)) + 1
-    if u0 < 0 or v0 < 0 or u1 > w or v1 > h:
-        return False, cx, cy, r
+    # the pixels in the frame (a ball near its edge: the ring outside it is cut)
+    u0, v0 = max(int(math.floor(cx - reach)), 0), max(int(math.floor(cy - reach)), 0)
+    u1, v1 = min(int(math.ceil(cx + reach)) + 1, w), min(int(math.ceil(cy + reach)) + 1, h)
+    if u1 - u0 < 3 or v1 - v0 < 3:
+        return False, cx, cy, r, 0.0, 0.0
     n_max = (u1 - u0) * (v1 - v0)
     pu = np.empty(n_max)
     pv = np.empty(n_max)
@@ -144,6 +150,8 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                 n += 1
     n_nl = 3 if r_free else 2
     m = n_nl + N_LIN
+    if n < 4 * m:
+        return False, cx, cy, r, 0.0, 0.0
     aux = np.empty((n, _N_AUX))
     jt = np.empty((m, n))  # the Jacobian, transposed: its rows' dot products vectorise
     res = np.empty(n)
@@ -165,7 +173,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
         if it == 0:  # the linear coefficients at the starting centre
             ok, beta = _solve(*_normal(jt, res, n_nl))
             if not ok:
-                return False, cx, cy, r
+                return False, cx, cy, r, 0.0, 0.0
         for k in range(n):
             step, ct, st = aux[k, 0], aux[k, 1], aux[k, 2]
             e = res[k]
@@ -184,9 +192,10 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                                       + beta[4] * (dx * y + x * dy)
                                       + beta[5] * 2.0 * (x * dx - y * dy))
                             + (1.0 - step) * (beta[7] * aux[k, o + 4] + beta[8] * aux[k, o + 5]))
-        ok, delta = _solve(*_normal(jt, res, 0))
+        mat, rhs = _normal(jt, res, 0)
+        ok, delta = _solve(mat, rhs)  # mat: its Cholesky factor
         if not ok or abs(delta[0]) > 3.0 or abs(delta[1]) > 3.0:
-            return False, cx, cy, r
+            return False, cx, cy, r, 0.0, 0.0
         cx += delta[0]
         cy += delta[1]
         if r_free:
@@ -194,8 +203,19 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
         for q in range(N_LIN):
             beta[q] += delta[n_nl + q]
         if math.hypot(cx - x0, cy - y0) > 0.5 * r0:  # diverged: not this ball
-            return False, cx, cy, r
-    return True, cx, cy, r
+            return False, cx, cy, r, 0.0, 0.0
+    # the centre's formal standard errors, from the last step's residual and normal equations
+    var = 0.0
+    for k in range(n):
+        var += res[k] * res[k]
+    var /= max(n - m, 1)
+    se = np.zeros(2)
+    for p in range(2):
+        e = np.zeros(m)
+        e[p] = 1.0
+        _cho_solve(mat, e)
+        se[p] = math.sqrt(max(e[p], 0.0) * var)
+    return True, cx, cy, r, se[0], se[1]
 
 
 @njit(cache=True, fastmath=True)
@@ -245,40 +265,42 @@ def _solve(mat, rhs):
 def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter,
                   z0, dzt, gt, dgt):
     """:func:`_fit_frame` on frames ``idx`` from centres ``start`` ``(len(idx), 2)`` with
-    velocities ``vel`` (px per frame): ``(len(idx), 3)`` centre and radius, NaN where the fit
-    failed."""
-    out = np.full((len(idx), 3), np.nan)
+    velocities ``vel`` (px per frame): ``(len(idx), 5)`` centre, radius and the centre's formal
+    standard errors, NaN where the fit failed."""
+    out = np.full((len(idx), 5), np.nan)
     for n in range(len(idx)):
         k = idx[n]
-        ok, cx, cy, rr = _fit_frame(frames[k], bg, gains[k], start[n, 0], start[n, 1],
-                                    vel[n, 0], vel[n, 1], r, sigma, exposure, r_free, n_iter,
-                                    z0, dzt, gt, dgt)
+        ok, cx, cy, rr, se_x, se_y = _fit_frame(frames[k], bg, gains[k], start[n, 0],
+                                                start[n, 1], vel[n, 0], vel[n, 1], r, sigma,
+                                                exposure, r_free, n_iter, z0, dzt, gt, dgt)
         if ok:
-            out[n, 0], out[n, 1], out[n, 2] = cx, cy, rr
+            out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4] = cx, cy, rr, se_x, se_y
     return out
 
 
 def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre: np.ndarray,
                    method: np.ndarray, fit) -> np.ndarray:
-    """Refine, in place, the centres of the frames with the ball wholly in view (``method``
-    ``CENTROID``) where the ball is small (the edge model's radius ``fit.radius`` at most
+    """Refine, in place, the centres of the frames where the ball was found (``method``
+    ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
+    the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
     ``SMALL_RADIUS``) and its fitted blur at most ``UNRELIABLE_BLUR`` of it; returns the mask of the frames refined (a failed fit keeps its
     centroid). First ``RADIUS_FRAMES`` frames spread over the video with the radius free, then
     every frame with it held at their median."""
-    from ._measure import CENTROID
+    from ._measure import CENTROID, EDGE_FIT
 
     from ._edge import UNRELIABLE_BLUR
 
     done = np.zeros(len(frames), bool)
+    no_se = np.full((len(frames), 2), np.nan)
     # not where the blur is a large part of the radius: there the edge model's blur trades
     # against the shading near the rim (docs/tracking.md section 3) and this fit, holding that
     # blur, errs more than the centroid (benchmarks/tracking_accuracy.py, radius 5 px, blur
     # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px)
     if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > UNRELIABLE_BLUR * fit.radius:
-        return done
-    idx = np.flatnonzero(method == CENTROID)
+        return done, no_se
+    idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT))
     if len(idx) < 3:
-        return done
+        return done, no_se
     found = ~np.isnan(centre[:, 0])
     prev, nxt = np.maximum(idx - 1, 0), np.minimum(idx + 1, len(frames) - 1)
     both = found[prev] & found[nxt] & (nxt > prev)
@@ -305,4 +327,13 @@ def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre
     ok = ~np.isnan(out[:, 0])
     centre[idx[ok]] = out[ok, :2]
     done[idx[ok]] = True
-    return done
+    se = np.full((len(frames), 2), np.nan)
+    se[idx[ok]] = out[ok, 3:]
+    return done, se
+
+
+def stated_centre_sd(se: np.ndarray) -> float:
+    """The refined centres' per-frame SD (px, per coordinate) from their formal standard errors
+    ``se`` ``(n, 2)``: ``SE_FACTOR`` times their RMS. It leaves out a constant error (the
+    lighting's bias, which moves no velocity)."""
+    return SE_FACTOR * float(np.sqrt(np.mean(se**2)))
