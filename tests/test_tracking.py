@@ -696,8 +696,8 @@ def test_a_small_side_lit_balls_centres_are_not_pulled_to_the_lit_side(monkeypat
     err = track.centre[ok] - truth[ok]
     # the renderer's truth (mid-exposure centres). Measured: RMS 0.059 px, mean error (+0.04,
     # +0.01) px; the target of issue 11 is 0.15 px RMS, and a bias below 0.08 px is what the
-    # lighting may leave (the 32 clips of benchmarks/paper_camera.py: |mean| <= 0.18 px with
-    # compression, 0.08 px without)
+    # lighting may leave (the 32 clips of benchmarks/paper_camera.py: |mean| <= 0.19 px with
+    # compression)
     assert rms(err) < 0.15
     assert np.all(np.abs(err.mean(axis=0)) < 0.08)
     # the coverage centroid with the edge fits' offset, which this replaces, fails both:
