@@ -42,8 +42,10 @@ from numba import njit
 from ._edge_kernel import _cho_solve, _cholesky
 
 SMALL_RADIUS = 8.0   # px: balls up to this radius get refined centres (larger ones: centroids)
-N_ITER = 2           # Gauss-Newton steps per frame (from the centroid: 2 and 3 give the same
-#                      accuracy, 1 less and 4 no better; benchmarks/paper_camera.py)
+N_ITER = 1           # Gauss-Newton steps per frame from the centre predicted from the two
+#                      frames before (from the centroid: one more; 2 and 3 steps from it give the
+#                      same accuracy, 1 less; benchmarks/paper_camera.py)
+PREDICT_PX = 0.5     # the prediction is used where within this of the centroid (not at impact)
 RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
 REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
 N_LIN = 9            # linear coefficients: b_0..b_5, o_0..o_2
@@ -68,21 +70,23 @@ def _phi(z, gauss):
 
 
 @njit(cache=True)
-def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k, z0, dzt, gt, dgt):
+def _pixel(du, dv, r, inv_r, base, inv_s0, smear2, dir_u, dir_v, r_free, out, k, z0,
+           inv_dzt, gt, dgt):
     """One pixel at offset ``(du, dv)`` from the centre, into row ``k`` of ``out``: ``S``,
     ``cos t``, ``sin t``, ``X``, ``Y``, ``N``, then the derivatives of ``S``, ``X``, ``Y``,
     ``N``, ``cos t``, ``sin t`` with respect to ``cx``, then ``cy``, then ``r`` (where
-    ``r_free``). ``z0, dzt, gt, dgt``: the table of ``G(z) = E[sqrt(z + Z)_+]`` (grid start,
-    step, values, derivative)."""
+    ``r_free``). ``inv_r = 1 / r``, ``inv_s0 = base^-1/2`` (the blur without smear); ``z0,
+    inv_dzt, gt, dgt``: the table of ``G(z) = E[sqrt(z + Z)_+]`` (grid start, 1 / step, values,
+    derivative)."""
     rho = max(math.sqrt(du * du + dv * dv), 1e-9)
-    inv_rho, inv_r = 1.0 / rho, 1.0 / r
+    inv_rho = 1.0 / rho
     ct, st = du * inv_rho, dv * inv_rho
     if smear2 > 0.0:
         cv = ct * dir_u + st * dir_v
         var_t = base + smear2 * (1.0 - cv * cv)
         inv_s = 1.0 / math.sqrt(base + smear2 * cv * cv)
     else:
-        var_t, inv_s = base, 1.0 / math.sqrt(base)
+        var_t, inv_s = base, inv_s0
     z = (r - 0.5 * var_t * inv_r - rho) * inv_s
     gauss = math.exp(-0.5 * z * z)
     dens = gauss * _INV_SQRT_2PI * inv_s
@@ -90,7 +94,7 @@ def _pixel(du, dv, r, base, smear2, dir_u, dir_v, r_free, out, k, z0, dzt, gt, d
     # the blurred n_z = sqrt(u (2r - u)) / r: E[sqrt(u + e)_+] (the edge model's table) times
     # sqrt(2 / r) sqrt(1 - u / (2 r)), and its derivative with respect to the depth u
     depth = z / inv_s
-    pos = (z - z0) / dzt
+    pos = (z - z0) * inv_dzt
     if pos >= len(gt) - 1:
         root, droot = math.sqrt(max(depth, 0.0)), 0.5 / math.sqrt(max(depth, 1e-9))
     else:
@@ -123,8 +127,10 @@ _N_AUX = 24
 @njit(cache=True)
 def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
                gt, dgt):
-    """One frame's fit from the centre ``(cx, cy)``: ok, centre, radius, and the centre's
-    formal standard errors (px: the residual's variance times the inverse normal matrix)."""
+    """One frame's fit from the centre ``(cx, cy)``, ``n_iter`` >= 1 steps: ok, centre, radius,
+    and the centre's formal standard errors (px: the residual's variance times the inverse
+    normal matrix)."""
+    n_iter = max(n_iter, 1)
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
@@ -150,6 +156,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                 n += 1
     n_nl = 3 if r_free else 2
     m = n_nl + N_LIN
+    inv_s0, inv_dzt = 1.0 / math.sqrt(base), 1.0 / dzt
     if n < 4 * m:
         return False, cx, cy, r, 0.0, 0.0
     aux = np.empty((n, _N_AUX))
@@ -159,8 +166,8 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     r0, x0, y0 = r, cx, cy
     for it in range(n_iter):
         for k in range(n):
-            _pixel(pu[k] - cx, pv[k] - cy, r, base, smear2, dir_u, dir_v, r_free, aux, k, z0,
-                   dzt, gt, dgt)
+            _pixel(pu[k] - cx, pv[k] - cy, r, 1.0 / r, base, inv_s0, smear2, dir_u, dir_v, r_free,
+                   aux, k, z0, inv_dzt, gt, dgt)
             step, ct, st = aux[k, 0], aux[k, 1], aux[k, 2]
             out = 1.0 - step
             jt[n_nl, k], jt[n_nl + 1, k] = step, step * aux[k, 3]
@@ -264,15 +271,24 @@ def _solve(mat, rhs):
 @njit(cache=True)
 def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter,
                   z0, dzt, gt, dgt):
-    """:func:`_fit_frame` on frames ``idx`` from centres ``start`` ``(len(idx), 2)`` with
-    velocities ``vel`` (px per frame): ``(len(idx), 5)`` centre, radius and the centre's formal
-    standard errors, NaN where the fit failed."""
+    """:func:`_fit_frame` on frames ``idx`` (in time order) with velocities ``vel`` (px per
+    frame): ``(len(idx), 5)`` centre, radius and the centre's formal standard errors, NaN where
+    the fit failed. Each fit starts from the centre predicted from the two frames before, where
+    both were fitted and it is within ``PREDICT_PX`` of ``start`` (the centroid), and then
+    takes ``n_iter`` Gauss-Newton steps; from ``start`` and ``n_iter + 1`` steps otherwise."""
     out = np.full((len(idx), 5), np.nan)
     for n in range(len(idx)):
         k = idx[n]
-        ok, cx, cy, rr, se_x, se_y = _fit_frame(frames[k], bg, gains[k], start[n, 0],
-                                                start[n, 1], vel[n, 0], vel[n, 1], r, sigma,
-                                                exposure, r_free, n_iter, z0, dzt, gt, dgt)
+        x0, y0, steps = start[n, 0], start[n, 1], n_iter + 1
+        if (n >= 2 and idx[n - 1] == k - 1 and idx[n - 2] == k - 2
+                and not math.isnan(out[n - 1, 0]) and not math.isnan(out[n - 2, 0])):
+            px = 2.0 * out[n - 1, 0] - out[n - 2, 0]
+            py = 2.0 * out[n - 1, 1] - out[n - 2, 1]
+            if math.hypot(px - x0, py - y0) <= PREDICT_PX:
+                x0, y0, steps = px, py, n_iter
+        ok, cx, cy, rr, se_x, se_y = _fit_frame(frames[k], bg, gains[k], x0, y0, vel[n, 0],
+                                                vel[n, 1], r, sigma, exposure, r_free, steps,
+                                                z0, dzt, gt, dgt)
         if ok:
             out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4] = cx, cy, rr, se_x, se_y
     return out
