@@ -442,9 +442,9 @@ def test_the_papers_camera(tmp_path):
     assert tr.found[whole].all()  # found in every frame it is fully in
     ok = tr.trusted & whole
     assert ok.sum() >= 0.9 * whole.sum()
-    # the target of issue 11, 0.15 px RMS: measured 0.082 px (0.19 px with the coverage
+    # the target of issue 11, 0.15 px RMS: measured 0.083 px (0.19 px with the coverage
     # centroid before the small-ball fit, tracking/_refine.py); the velocities below are what
-    # the centres are for (measured z: rebound speed +0.40, angle -0.93)
+    # the centres are for (measured z: rebound speed +0.41, angle -0.98)
     assert tr.refined[ok].mean() > 0.9
     assert rms(tr.centre[ok] - truth[ok]) < 0.15
     fit = fit_kinematics(read_trajectory(write_track_files(video, tmp_path)["trajectory"]))
@@ -694,12 +694,12 @@ def test_a_small_side_lit_balls_centres_are_not_pulled_to_the_lit_side(monkeypat
     ok = track.trusted & whole
     assert ok.sum() >= 80 and track.refined[ok].mean() >= 0.9
     err = track.centre[ok] - truth[ok]
-    # the renderer's truth (mid-exposure centres). Measured: RMS 0.059 px, mean error (+0.04,
-    # +0.01) px; the target of issue 11 is 0.15 px RMS, and a bias below 0.08 px is what the
-    # lighting may leave (the 32 clips of benchmarks/paper_camera.py: |mean| <= 0.19 px with
-    # compression)
+    # the renderer's truth (mid-exposure centres). Measured: RMS 0.074 px, mean error (+0.06,
+    # +0.02) px; the target of issue 11 is 0.15 px RMS, and a bias below 0.1 px is what the
+    # lighting may leave at this blur without compression (the 32 clips of
+    # benchmarks/paper_camera.py, with MJPEG or MPEG-4: |mean| up to 0.21 px at blur 0.6 px)
     assert rms(err) < 0.15
-    assert np.all(np.abs(err.mean(axis=0)) < 0.08)
+    assert np.all(np.abs(err.mean(axis=0)) < 0.1)
     # the coverage centroid with the edge fits' offset, which this replaces, fails both:
     # measured RMS 0.345 px, mean error (-0.27, -0.17) px, towards the lit side
     monkeypatch.setattr(_refine, "SMALL_RADIUS", 0.0)
