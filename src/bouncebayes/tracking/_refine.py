@@ -17,19 +17,23 @@ through the edge model's table of ``E[sqrt(u + e)_+]``), ``t`` the polar angle a
 local background level on each side: the edge model's shading (:mod:`._edge`, the spherical
 harmonics of the normal to order 2) cut to the terms that matter at this size, so that side
 light and limb darkening do not pull the centre. The linear coefficients and the centre by
-Gauss-Newton, ``N_ITER`` steps from the coverage centroid, on the ~150 pixels within about two
-blurs of the rim; the radius first (free, with the centre, on ``RADIUS_FRAMES`` frames spread
-over the video, their median then held).
+Gauss-Newton on the ~150 pixels within about two blurs of the rim that are in the frame:
+``N_ITER`` step from the centre predicted from the two frames before, one more from the
+coverage centroid (or the frame-edge disk fit) where there is no prediction or it is off by
+more than ``PREDICT_PX`` (the impact). The radius first (free, with the centre, on
+``RADIUS_FRAMES`` frames spread over the video; their median then held).
 
 Measured over the 32 clips of ``benchmarks/paper_camera.py`` (radius 5 px; RMS error of the
 centres, mean over clips): the coverage centroid with the edge fits' offset 0.224 px; this
-fit 0.120 px. Its radius is its own: with the edge model's radius held (off by up to 18 % at
-this size under MPEG-4, docs/tracking.md section 3) 0.154 px in an earlier version of the fit
-where its own radius gave 0.144 and the true one 0.118; and ``n_z`` unblurred biased that
-radius ~0.3 px small at a blur of 0.6 px, pulling the centres towards the lit side by up to
-0.18 px. Why not the edge model itself on every frame: ~7 ms a frame through
-``least_squares`` (35x the 224 x 64 speed target's budget); this fit, compiled, ~25 us. Written
-by hand because no library fits a blurred disk per frame at this cost.
+fit 0.092 px (0.088 with two steps from the centroid in every frame, ~10 % more time). Its
+radius is its own: the edge model's is off by up to 18 % at this size under MPEG-4
+(docs/tracking.md section 3), and in an earlier version of this fit (unblurred ``n_z``) the
+centres were 0.154 px with the edge model's radius held, 0.144 with its own and 0.118 with
+the true one; the unblurred ``n_z`` also biased its own radius ~0.3 px small at a blur of 0.6
+px, pulling the centres towards the lit side by up to 0.18 px. Why not the edge model itself
+on every frame: ~7 ms a frame through ``least_squares`` (35x the 224 x 64 speed target's
+budget); this fit, compiled, ~20 us a frame. Written by hand because no library fits a
+blurred disk per frame at this cost.
 """
 
 from __future__ import annotations
@@ -61,8 +65,8 @@ _INV_SQRT2 = 1.0 / math.sqrt(2.0)
 def _phi(z, gauss):
     """The standard normal CDF at ``z``, given ``gauss = exp(-z^2 / 2)``: Abramowitz & Stegun
     7.1.26 (``erfc`` to 1.5e-7, so ``S`` to 7.5e-8: 1e-5 grey levels at a contrast of 150),
-    which reuses the exponential the density needs (``math.erfc`` cost ~3x the rest of a
-    pixel's arithmetic)."""
+    which reuses the exponential the density needs (with ``math.erfc`` a pass over 150 pixels
+    took 10 us instead of 6)."""
     t = 1.0 / (1.0 + 0.3275911 * _INV_SQRT2 * abs(z))
     tail = 0.5 * t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (
         -1.453152027 + t * 1.061405429)))) * gauss
@@ -295,16 +299,16 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
 
 
 def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre: np.ndarray,
-                   method: np.ndarray, fit) -> np.ndarray:
+                   method: np.ndarray, fit) -> tuple[np.ndarray, np.ndarray]:
     """Refine, in place, the centres of the frames where the ball was found (``method``
     ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
     the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
-    ``SMALL_RADIUS``) and its fitted blur at most ``UNRELIABLE_BLUR`` of it; returns the mask of the frames refined (a failed fit keeps its
-    centroid). First ``RADIUS_FRAMES`` frames spread over the video with the radius free, then
-    every frame with it held at their median."""
-    from ._measure import CENTROID, EDGE_FIT
-
+    ``SMALL_RADIUS``) and its fitted blur at most ``UNRELIABLE_BLUR`` of it. Returns the mask of
+    the frames refined (a failed fit keeps its centroid) and their centres' formal standard
+    errors ``(n, 2)`` (px; NaN where not refined). First ``RADIUS_FRAMES`` frames spread over
+    the video with the radius free, then every frame with it held at their median."""
     from ._edge import UNRELIABLE_BLUR
+    from ._measure import CENTROID, EDGE_FIT
 
     done = np.zeros(len(frames), bool)
     no_se = np.full((len(frames), 2), np.nan)
