@@ -27,10 +27,10 @@ Measured over the 32 clips of ``benchmarks/paper_camera.py`` (radius 5 px; RMS e
 centres, mean over clips): the coverage centroid with the edge fits' offset 0.224 px; this
 fit 0.092 px (0.088 with two steps from the centroid in every frame, ~10 % more time). Its
 radius is its own: the edge model's is off by up to 18 % at this size under MPEG-4
-(docs/tracking.md section 3), and in an earlier version of this fit (unblurred ``n_z``) the
-centres were 0.154 px with the edge model's radius held, 0.144 with its own and 0.118 with
-the true one; the unblurred ``n_z`` also biased its own radius ~0.3 px small at a blur of 0.6
-px, pulling the centres towards the lit side by up to 0.18 px. Why not the edge model itself
+(docs/tracking.md section 3), and even the true radius held gives 0.124 px (the true blur
+0.099): the fitted ones are this model's effective values. With ``n_z`` unblurred (an earlier
+version) its radius came out ~0.3 px small at a blur of 0.6 px, pulling the centres towards
+the lit side by up to 0.18 px. Why not the edge model itself
 on every frame: ~7 ms a frame through ``least_squares`` (35x the 224 x 64 speed target's
 budget); this fit, compiled, ~20 us a frame. Written by hand because no library fits a
 blurred disk per frame at this cost.
