@@ -30,10 +30,11 @@ radius is its own: the edge model's is off by up to 18 % at this size under MPEG
 (docs/tracking.md section 3), and even the true radius held gives 0.124 px (the true blur
 0.099): the fitted ones are this model's effective values. With ``n_z`` unblurred (an earlier
 version) its radius came out ~0.3 px small at a blur of 0.6 px, pulling the centres towards
-the lit side by up to 0.18 px. Why not the edge model itself
-on every frame: ~7 ms a frame through ``least_squares`` (35x the 224 x 64 speed target's
-budget); this fit, compiled, ~20 us a frame. Written by hand because no library fits a
-blurred disk per frame at this cost.
+the lit side by up to 0.18 px.
+
+Why not the edge model itself on every frame: ~7 ms a frame through ``least_squares`` (35x
+the 224 x 64 speed target's budget); this fit, compiled, ~20 us a frame. Written by hand
+because no library fits a blurred disk per frame at this cost.
 """
 
 from __future__ import annotations
