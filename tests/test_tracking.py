@@ -442,9 +442,11 @@ def test_the_papers_camera(tmp_path):
     assert tr.found[whole].all()  # found in every frame it is fully in
     ok = tr.trusted & whole
     assert ok.sum() >= 0.9 * whole.sum()
-    # measured 0.19 px RMS (the target is 0.15: not met after MJPEG at this size, see
-    # docs/tracking.md); the velocities below are what the centres are for
-    assert rms(tr.centre[ok] - truth[ok]) < 0.3
+    # the target of issue 11, 0.15 px RMS: measured 0.083 px (0.19 px with the coverage
+    # centroid before the small-ball fit, tracking/_refine.py); the velocities below are what
+    # the centres are for (measured z: rebound speed +0.41, angle -0.98)
+    assert tr.refined[ok].mean() > 0.9
+    assert rms(tr.centre[ok] - truth[ok]) < 0.15
     fit = fit_kinematics(read_trajectory(write_track_files(video, tmp_path)["trajectory"]))
     speed_sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
     assert abs(fit.rebound_speed - shot.throw.rebound_speed()) < 3 * speed_sd
@@ -663,3 +665,134 @@ def test_the_edge_models_jacobian_is_the_derivative_of_its_residual(q):
             assert scale > 0.1  # every parameter moves the residual
             np.testing.assert_allclose(jac[:, col], fd, rtol=0, atol=3e-4 * scale)
             assert np.median(np.abs(jac[:, col] - fd)) < 5e-5 * scale
+
+
+# --------------------------------------------------------------------------- small-ball centres
+
+
+def _side_lit_small_ball():
+    from render_pbr import Shot, Throw, render
+
+    # the paper's camera (224 x 64, 1000 fps), a 5 px ball lit from the left, lens blur 0.6 px,
+    # uncompressed: the lighting's bias alone
+    shot = Shot(width=224, height=64, radius_px=5.0, n_frames=100, surface_v=50.0,
+                slope_deg=3.0, sigma_px=0.6, exposure=0.5, light=(-0.6, 0.3, 0.75),
+                supersample=3, seed=2, throw=Throw(speed_in=2.0, angle_in=35.0,
+                                                    t_contact=0.05, x_contact=0.05))
+    truth = shot.true_centres()
+    r = shot.radius_px
+    whole = ((truth[:, 0] >= r) & (truth[:, 0] <= shot.width - 1 - r)
+             & (truth[:, 1] >= r) & (truth[:, 1] <= shot.height - 1 - r))
+    return render(shot), truth, whole
+
+
+def test_a_small_side_lit_balls_centres_are_not_pulled_to_the_lit_side(monkeypatch):
+    from bouncebayes.tracking import _refine
+
+    frames, truth, whole = _side_lit_small_ball()
+    track = track_ball(frames)
+    ok = track.trusted & whole
+    assert ok.sum() >= 80 and track.refined[ok].mean() >= 0.9
+    err = track.centre[ok] - truth[ok]
+    # the renderer's truth (mid-exposure centres). Measured: RMS 0.074 px, mean error (+0.06,
+    # +0.02) px; the target of issue 11 is 0.15 px RMS, and a bias below 0.1 px is what the
+    # lighting may leave at this blur without compression (the 32 clips of
+    # benchmarks/paper_camera.py, with MJPEG or MPEG-4: |mean| up to 0.21 px at blur 0.6 px)
+    assert rms(err) < 0.15
+    assert np.all(np.abs(err.mean(axis=0)) < 0.1)
+    # the coverage centroid with the edge fits' offset, which this replaces, fails both:
+    # measured RMS 0.345 px, mean error (-0.27, -0.17) px, towards the lit side
+    monkeypatch.setattr(_refine, "SMALL_RADIUS", 0.0)
+    old = track_ball(frames)
+    assert not old.refined.any()
+    old_err = old.centre[ok] - truth[ok]
+    assert rms(old_err) > 0.25 and old_err.mean(axis=0)[0] < -0.15
+
+
+def _refine_residual_numpy(q, u, v, grey, back, sigma, r=None):
+    """The model of tracking/_refine.py in NumPy (exact normal CDF, NumPy least squares): the
+    residual at centre ``q[:2]`` (and radius ``q[2]``), the linear coefficients solved."""
+    from scipy.special import ndtr
+
+    from bouncebayes.tracking._edge import _sqrt_table
+
+    cx, cy = q[0], q[1]
+    r = q[2] if len(q) == 3 else r
+    du, dv = u - cx, v - cy
+    rho = np.hypot(du, dv)
+    base = sigma**2 + 1 / 12  # no exposure smear: the ball at rest
+    s = math.sqrt(base)
+    z = (r - base / (2 * r) - rho) / s
+    step = ndtr(z)
+    zt, gt = _sqrt_table()
+    root = math.sqrt(s) * np.interp(z, zt, gt, right=np.nan)
+    root = np.where(np.isnan(root), np.sqrt(np.maximum(z * s, 0.0)), root)
+    nz = root * np.sqrt(1 / r + rho / r**2)
+    x, y, ct, st = du / r, dv / r, du / rho, dv / rho
+    a = np.column_stack([step, step * x, step * y, nz, step * x * y, step * (x * x - y * y),
+                         1 - step, (1 - step) * ct, (1 - step) * st])
+    target = grey - back * (1 - step)
+    beta = np.linalg.lstsq(a, target, rcond=None)[0]
+    return target - a @ beta
+
+
+@pytest.mark.parametrize("r_free", [False, True])
+def test_the_compiled_small_ball_fit_finds_the_least_squares_centre(r_free):
+    from scipy.optimize import least_squares
+
+    from bouncebayes.tracking._edge import _sqrt_table
+    from bouncebayes.tracking._refine import REACH_BLURS, REACH_PX, _fit_frame
+
+    # an independent image: a 5 px ball lit from the left (clamped Lambert, limb darkening) on
+    # a textured wall, 4 x 4 supersampled, blurred by 0.6 px, noise, 8 bits
+    rng = np.random.default_rng(11)
+    sub, h, w, c, r, sigma = 4, 32, 36, (17.3, 15.6), 5.0, 0.6
+    g = (np.arange(w * sub) + 0.5) / sub - 0.5
+    yy, xx = np.meshgrid((np.arange(h * sub) + 0.5) / sub - 0.5, g, indexing="ij")
+    wall = 50 + 8 * np.sin(0.4 * xx + 0.3 * yy) + 5 * np.cos(0.7 * yy)
+    X, Y = (xx - c[0]) / r, (yy - c[1]) / r
+    inside = X * X + Y * Y < 1
+    nz = np.sqrt(np.clip(1 - X * X - Y * Y, 0, 1))
+    shade = 60 + 150 * np.clip(-0.6 * X - 0.3 * Y + 0.75 * nz, 0, None) * (0.7 + 0.3 * nz)
+    hi = cv2.GaussianBlur(np.where(inside, shade, wall), (0, 0), sigma * sub)
+    img = hi.reshape(h, sub, w, sub).mean(axis=(1, 3)) + rng.normal(0, 1.5, (h, w))
+    frame = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    bg = wall.reshape(h, sub, w, sub).mean(axis=(1, 3))
+    start = (c[0] + 0.3, c[1] - 0.25)
+    r0 = 4.8 if r_free else r  # a radius to start from, or the true one held
+    zt, gt = _sqrt_table()
+    ok, cx, cy, rr, se_x, se_y = _fit_frame(frame, bg, 1.0, start[0], start[1], 0.0, 0.0, r0,
+                                            sigma, 0.0,
+                                            r_free, 12, float(zt[0]), float(zt[1] - zt[0]),
+                                            gt, np.gradient(gt, zt))
+    assert ok
+    # the formal standard errors, from the residual (the noise, 1.5 grey levels, and the
+    # shading the model does not follow) on a contrast of ~150 over ~150 pixels: measured
+    # 0.028-0.036 px; the fit of the same frame moves by ~0.1 px with the model's error
+    assert 0.01 < se_x < 0.06 and 0.01 < se_y < 0.06
+    # expected: the same cost minimised by scipy's least_squares (central differences, to
+    # convergence) on the same pixels (within r + REACH_PX + REACH_BLURS blurs of the start),
+    # with the exact normal CDF. The compiled fit's is Abramowitz & Stegun's (1.5e-7) and its
+    # Jacobian takes the limb table's derivative from np.gradient, not the slope of the linear
+    # interpolation its value uses, so its Gauss-Newton steps stop at a slightly different
+    # point: measured 1e-4 px away
+    vv, uu = np.mgrid[:h, :w].astype(float)
+    reach = r0 + REACH_PX + REACH_BLURS * math.sqrt(sigma**2 + 1 / 12)
+    near = np.hypot(uu - start[0], vv - start[1]) <= reach
+    args = (uu[near], vv[near], frame[near].astype(float), bg[near], sigma)
+    if r_free:
+        ref = least_squares(_refine_residual_numpy, [*start, r0], args=args, xtol=1e-12,
+                            ftol=1e-12, gtol=1e-12).x
+        assert rr == pytest.approx(ref[2], abs=5e-4)
+    else:
+        ref = least_squares(_refine_residual_numpy, start, args=args, kwargs={"r": r0},
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12, jac="3-point").x
+        assert rr == r0
+    assert cx == pytest.approx(ref[0], abs=5e-4) and cy == pytest.approx(ref[1], abs=5e-4)
+    # and the fit is near the drawn centre (the model is not the drawing: measured 0.0x px)
+    if not r_free:
+        # with the true radius held the fit is near the drawn centre (the model's shading is
+        # not the drawing's clamped one, and there is noise: measured 0.097 px); a single
+        # frame's free radius is not (measured 4.68 px, the centre 0.26 px off): the tracker
+        # holds the median of 15 frames' radii
+        assert math.hypot(cx - c[0], cy - c[1]) < 0.15

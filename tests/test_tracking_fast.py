@@ -110,11 +110,11 @@ def test_the_largest_blob_is_opencvs(seed):
 def test_warmup_compiles_every_version_a_video_needs():
     # `bouncebayes warmup` runs _fast.warm(): afterwards a video -- read-only frames, integer
     # settings where floats are expected -- must not compile anything on the user's run
-    from bouncebayes.tracking import _edge_kernel, _fast, track_ball
+    from bouncebayes.tracking import _edge_kernel, _fast, _refine, track_ball
 
     _fast.warm()
     kernels = (_fast.measure_frames, _fast.edge_fits, _fast.quality_misfit,
-               _edge_kernel.varpro)
+               _edge_kernel.varpro, _refine.refine_frames)
     compiled = [len(k.signatures) for k in kernels]
     assert compiled[-1] > 0  # the edge model's kernel is warmed too
     frames = render(Scene(n_frames=60), Bounce(x_contact=0.02))
@@ -122,4 +122,11 @@ def test_warmup_compiles_every_version_a_video_needs():
     track = track_ball(frames, config=TrackerConfig(edge_model=False, min_contrast=12))
     assert (track.method == EDGE_FIT).any()  # the edge fits ran
     track_ball(frames, config=TrackerConfig(min_contrast=12))  # with the edge model
+    # a small ball (the paper's camera), whose centres the small-ball fit refines
+    small = render(Scene(width=224, height=64, radius_px=5.0, n_frames=60,
+                         surface_point=(0.0, 52.0), inclination=3.0, exposure=0.5),
+                   Bounce(speed_in=2.0, angle_in=35.0, t_contact=0.03, x_contact=0.05))
+    assert track_ball(small).refined.any()
+    small.setflags(write=False)
+    assert track_ball(small).refined.any()
     assert [len(k.signatures) for k in kernels] == compiled

@@ -552,8 +552,9 @@ def quality_misfit(frames, bg, gains, sign, threshold, idx, centre, contrast, r,
 def warm() -> None:
     """Compile (or load from numba's on-disk cache) every kernel here, through
     :func:`.track_ball` on a tiny clip: a bright ball entering from the left edge (so the edge
-    fit runs too), with the argument types a video gives them, writable or read-only, and
-    once with the edge model of the ball's radius (:mod:`._edge_kernel`)."""
+    fit runs too), with the argument types a video gives them, writable or read-only, with
+    and without the edge model of the ball's radius (:mod:`._edge_kernel`) and the small-ball
+    fit that follows it (:mod:`._refine`)."""
     from ._track import TrackerConfig, _track_ball
 
     n, h, w = 12, 48, 64
@@ -562,6 +563,9 @@ def warm() -> None:
     for k in range(n):
         frames[k][(xx - 4.0 * k) ** 2 + (yy - 24.0) ** 2 <= 36.0] = 200
     _track_ball(frames, TrackerConfig(edge_model=False), None, compiled=True)
+    # the edge model's kernel too, and the small-ball fit (:mod:`._refine`: this ball's radius
+    # is 6 px), on writable and read-only frames
+    _track_ball(frames, TrackerConfig(), None, compiled=True)
     frames.setflags(write=False)  # numba compiles read-only arrays (a memory map) separately
     _track_ball(frames, TrackerConfig(edge_model=False), None, compiled=True)
-    _track_ball(frames, TrackerConfig(), None, compiled=True)  # the edge model's kernel too
+    _track_ball(frames, TrackerConfig(), None, compiled=True)

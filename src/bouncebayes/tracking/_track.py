@@ -78,6 +78,9 @@ class Track:
     error, None where no frame could be fitted (then :attr:`ball_radius` is the median
     coverage radius). ``centre_offset``: the shift (px) applied to every coverage centroid so
     that they agree with the edge fits (a constant bias of the centroid under side light).
+    ``refined``: frames whose centre is a blurred, shaded disk fitted to the frame instead of
+    the coverage centroid or the disk fit at the frame edge (a small ball, :mod:`._refine`;
+    the offset does not apply to them).
     """
 
     centre: np.ndarray
@@ -93,6 +96,7 @@ class Track:
     flag: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     radius_fit: RadiusFit | None = None
     centre_offset: tuple[float, float] = (0.0, 0.0)
+    refined: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
 
     @property
     def found(self) -> np.ndarray:
@@ -209,12 +213,18 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     fit, offset = fit_ball_radius(frames, state, centre, method, flag, radius) if \
         config.edge_model else (None, (0.0, 0.0))
     centre[method == CENTROID] += offset
-    for a in (centre, radius, method, contrast, residual, visible, flag):
+    from ._refine import refine_centres, stated_centre_sd
+
+    refined, centre_se = refine_centres(frames, state.bg64, np.asarray(state.gains, np.float64),
+                                        centre, method, fit)
+    if refined.any() and fit is not None:  # the refined centres' SD, not the centroids'
+        fit = fit._replace(centre_sd=stated_centre_sd(centre_se[refined]))
+    for a in (centre, radius, method, contrast, residual, visible, flag, refined):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, radius_fit=fit,
-                 centre_offset=offset)
+                 centre_offset=offset, refined=refined)
 
 
 def _check_frames(frames) -> np.ndarray:

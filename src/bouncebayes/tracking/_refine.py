@@ -1,0 +1,360 @@
+"""Centres of a small ball, refined per frame by a blurred, shaded disk fitted to the frame.
+
+For a ball of a few pixels' radius the coverage centroid (:mod:`._measure`) is pulled towards
+the lit side by up to ~0.4 px: the coverage's two outermost rings lie inside the blurred edge,
+so the rim's grey level extrapolated from them falls to about the background and the coverage
+becomes a thresholded mask (docs/tracking.md, the paper's camera). Here every frame's centre
+is fitted instead, with the ball's blur and exposure from the edge model (:mod:`._edge`) held::
+
+    I_i = B_i (1 - S_i) + S_i (b_0 + b_1 X_i + b_2 Y_i + b_4 X_i Y_i + b_5 (X_i^2 - Y_i^2))
+          + b_3 N_i + (1 - S_i) (o_0 + o_1 cos t_i + o_2 sin t_i)
+
+``S`` the blurred step of the rim (as :mod:`._edge`: a Gaussian lens blur, the pixel's width
+and the exposure's smear along the direction of motion, with the curvature shift of a blurred
+circle), ``X, Y`` the pixel's offset from the centre over the radius, ``N`` the blurred normal
+towards the camera ``n_z = sqrt(u (2r - u)) / r`` (``u`` the depth inside the rim; blurred
+through the edge model's table of ``E[sqrt(u + e)_+]``), ``t`` the polar angle and ``o`` the
+local background level on each side: the edge model's shading (:mod:`._edge`, the spherical
+harmonics of the normal to order 2) cut to the terms that matter at this size, so that side
+light and limb darkening do not pull the centre. The linear coefficients and the centre by
+Gauss-Newton on the ~150 pixels within about two blurs of the rim that are in the frame:
+``N_ITER`` step from the centre predicted from the two frames before, one more from the
+coverage centroid (or the frame-edge disk fit) where there is no prediction or it is off by
+more than ``PREDICT_PX`` (the impact). The radius first (free, with the centre, on
+``RADIUS_FRAMES`` frames spread over the video; their median then held).
+
+Measured over the 32 clips of ``benchmarks/paper_camera.py`` (radius 5 px; RMS error of the
+centres, mean over clips): the coverage centroid with the edge fits' offset 0.224 px; this
+fit 0.092 px (0.088 with two steps from the centroid in every frame, ~10 % more time). Its
+radius is its own: the edge model's is off by up to 18 % at this size under MPEG-4
+(docs/tracking.md section 3), and even the true radius held gives 0.124 px (the true blur
+0.099): the fitted ones are this model's effective values. With ``n_z`` unblurred (an earlier
+version) its radius came out ~0.3 px small at a blur of 0.6 px, pulling the centres towards
+the lit side by up to 0.18 px.
+
+Why not the edge model itself on every frame: ~7 ms a frame through ``least_squares`` (35x
+the 224 x 64 speed target's budget); this fit, compiled, ~20 us a frame. Written by hand
+because no library fits a blurred disk per frame at this cost.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ._edge_kernel import _cho_solve, _cholesky
+
+SMALL_RADIUS = 8.0   # px: balls up to this radius get refined centres (larger ones: centroids)
+N_ITER = 1           # Gauss-Newton steps per frame from the centre predicted from the two
+#                      frames before (from the centroid: one more; 2 and 3 steps from it give the
+#                      same accuracy, 1 less; benchmarks/paper_camera.py)
+PREDICT_PX = 0.5     # the prediction is used where within this of the centroid (not at impact)
+RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
+REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
+N_LIN = 9            # linear coefficients: b_0..b_5, o_0..o_2
+SE_FACTOR = 1.5      # the stated per-frame SD of refined centres: this times their formal SE
+#   (independent pixels; MJPEG/MPEG-4 errors are correlated between pixels, which it misses:
+#   over the 32 clips of benchmarks/paper_camera.py the centres' scatter about their mean error
+#   is 0.8-1.9x the formal SE, MPEG-4 the largest)
+_INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
+_INV_SQRT2 = 1.0 / math.sqrt(2.0)
+
+
+@njit(cache=True)
+def _phi(z, gauss):
+    """The standard normal CDF at ``z``, given ``gauss = exp(-z^2 / 2)``: Abramowitz & Stegun
+    7.1.26 (``erfc`` to 1.5e-7, so ``S`` to 7.5e-8: 1e-5 grey levels at a contrast of 150),
+    which reuses the exponential the density needs (with ``math.erfc`` a pass over 150 pixels
+    took 10 us instead of 6)."""
+    t = 1.0 / (1.0 + 0.3275911 * _INV_SQRT2 * abs(z))
+    tail = 0.5 * t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (
+        -1.453152027 + t * 1.061405429)))) * gauss
+    return 1.0 - tail if z >= 0.0 else tail
+
+
+@njit(cache=True)
+def _pixel(du, dv, r, inv_r, base, inv_s0, smear2, dir_u, dir_v, r_free, out, k, z0,
+           inv_dzt, gt, dgt):
+    """One pixel at offset ``(du, dv)`` from the centre, into row ``k`` of ``out``: ``S``,
+    ``cos t``, ``sin t``, ``X``, ``Y``, ``N``, then the derivatives of ``S``, ``X``, ``Y``,
+    ``N``, ``cos t``, ``sin t`` with respect to ``cx``, then ``cy``, then ``r`` (where
+    ``r_free``). ``inv_r = 1 / r``, ``inv_s0 = base^-1/2`` (the blur without smear); ``z0,
+    inv_dzt, gt, dgt``: the table of ``G(z) = E[sqrt(z + Z)_+]`` (grid start, 1 / step, values,
+    derivative)."""
+    rho = max(math.sqrt(du * du + dv * dv), 1e-9)
+    inv_rho = 1.0 / rho
+    ct, st = du * inv_rho, dv * inv_rho
+    if smear2 > 0.0:
+        cv = ct * dir_u + st * dir_v
+        var_t = base + smear2 * (1.0 - cv * cv)
+        inv_s = 1.0 / math.sqrt(base + smear2 * cv * cv)
+    else:
+        var_t, inv_s = base, inv_s0
+    z = (r - 0.5 * var_t * inv_r - rho) * inv_s
+    gauss = math.exp(-0.5 * z * z)
+    dens = gauss * _INV_SQRT_2PI * inv_s
+    x, y = du * inv_r, dv * inv_r
+    # the blurred n_z = sqrt(u (2r - u)) / r: E[sqrt(u + e)_+] (the edge model's table) times
+    # sqrt(2 / r) sqrt(1 - u / (2 r)), and its derivative with respect to the depth u
+    depth = z / inv_s
+    pos = (z - z0) * inv_dzt
+    if pos >= len(gt) - 1:
+        root, droot = math.sqrt(max(depth, 0.0)), 0.5 / math.sqrt(max(depth, 1e-9))
+    else:
+        i0 = max(int(pos), 0)
+        f = min(max(pos - i0, 0.0), 1.0)
+        s_half = 1.0 / math.sqrt(inv_s)
+        root = s_half * (gt[i0] * (1.0 - f) + gt[i0 + 1] * f)
+        droot = (dgt[i0] * (1.0 - f) + dgt[i0 + 1] * f) / s_half
+    fac = math.sqrt(max(inv_r + rho * inv_r * inv_r, 1e-12))  # sqrt(2/r) sqrt(1 - (r-rho)/2r)
+    nz = root * fac
+    dnz_du = droot * fac - root * 0.5 * inv_r * inv_r / fac  # u = r - rho: d rho = -d u
+    out[k, 0] = _phi(z, gauss)
+    out[k, 1], out[k, 2], out[k, 3], out[k, 4], out[k, 5] = ct, st, x, y, nz
+    # the centre moves: du, dv fall by one
+    out[k, 6], out[k, 7], out[k, 8], out[k, 9] = dens * ct, -inv_r, 0.0, dnz_du * ct
+    out[k, 10], out[k, 11] = -st * st * inv_rho, ct * st * inv_rho
+    out[k, 12], out[k, 13], out[k, 14], out[k, 15] = dens * st, 0.0, -inv_r, dnz_du * st
+    out[k, 16], out[k, 17] = ct * st * inv_rho, -ct * ct * inv_rho
+    if r_free:
+        out[k, 18] = dens * (1.0 + 0.5 * var_t * inv_r * inv_r)
+        dfac_dr = -(inv_r * inv_r + 2.0 * rho * inv_r * inv_r * inv_r) / (2.0 * fac)
+        out[k, 19], out[k, 20] = -x * inv_r, -y * inv_r
+        out[k, 21] = droot * fac * (1.0 + 0.5 * var_t * inv_r * inv_r) + root * dfac_dr
+        out[k, 22] = out[k, 23] = 0.0
+
+
+_N_AUX = 24
+
+
+@njit(cache=True)
+def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
+               gt, dgt):
+    """One frame's fit from the centre ``(cx, cy)``, ``n_iter`` >= 1 steps: ok, centre, radius,
+    and the centre's formal standard errors (px: the residual's variance times the inverse
+    normal matrix)."""
+    n_iter = max(n_iter, 1)
+    h, w = frame.shape
+    speed = math.hypot(vx, vy)
+    dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
+    smear2 = (exposure * speed) ** 2 / 12.0
+    base = sigma * sigma + 1.0 / 12.0
+    reach = r + REACH_PX + REACH_BLURS * math.sqrt(base + smear2)
+    # the pixels in the frame (a ball near its edge: the ring outside it is cut)
+    u0, v0 = max(int(math.floor(cx - reach)), 0), max(int(math.floor(cy - reach)), 0)
+    u1, v1 = min(int(math.ceil(cx + reach)) + 1, w), min(int(math.ceil(cy + reach)) + 1, h)
+    if u1 - u0 < 3 or v1 - v0 < 3:
+        return False, cx, cy, r, 0.0, 0.0
+    n_max = (u1 - u0) * (v1 - v0)
+    pu = np.empty(n_max)
+    pv = np.empty(n_max)
+    grey = np.empty(n_max)
+    back = np.empty(n_max)
+    n = 0
+    for i in range(v0, v1):
+        for j in range(u0, u1):
+            if (j - cx) ** 2 + (i - cy) ** 2 <= reach * reach:
+                pu[n], pv[n] = j, i
+                grey[n], back[n] = frame[i, j], gain * bg[i, j]
+                n += 1
+    n_nl = 3 if r_free else 2
+    m = n_nl + N_LIN
+    inv_s0, inv_dzt = 1.0 / math.sqrt(base), 1.0 / dzt
+    if n < 4 * m:
+        return False, cx, cy, r, 0.0, 0.0
+    aux = np.empty((n, _N_AUX))
+    jt = np.empty((m, n))  # the Jacobian, transposed: its rows' dot products vectorise
+    res = np.empty(n)
+    beta = np.zeros(N_LIN)
+    r0, x0, y0 = r, cx, cy
+    for it in range(n_iter):
+        for k in range(n):
+            _pixel(pu[k] - cx, pv[k] - cy, r, 1.0 / r, base, inv_s0, smear2, dir_u, dir_v, r_free,
+                   aux, k, z0, inv_dzt, gt, dgt)
+            step, ct, st = aux[k, 0], aux[k, 1], aux[k, 2]
+            out = 1.0 - step
+            jt[n_nl, k], jt[n_nl + 1, k] = step, step * aux[k, 3]
+            jt[n_nl + 2, k], jt[n_nl + 3, k] = step * aux[k, 4], aux[k, 5]
+            jt[n_nl + 4, k] = step * aux[k, 3] * aux[k, 4]
+            jt[n_nl + 5, k] = step * (aux[k, 3] * aux[k, 3] - aux[k, 4] * aux[k, 4])
+            jt[n_nl + 6, k] = out
+            jt[n_nl + 7, k], jt[n_nl + 8, k] = out * ct, out * st
+            res[k] = grey[k] - back[k] * out
+        if it == 0:  # the linear coefficients at the starting centre
+            ok, beta = _solve(*_normal(jt, res, n_nl))
+            if not ok:
+                return False, cx, cy, r, 0.0, 0.0
+        for k in range(n):
+            step, ct, st = aux[k, 0], aux[k, 1], aux[k, 2]
+            e = res[k]
+            for q in range(N_LIN):
+                e -= beta[q] * jt[n_nl + q, k]
+            res[k] = e
+            x, y = aux[k, 3], aux[k, 4]
+            d_step = (beta[0] + beta[1] * x + beta[2] * y
+                      + beta[4] * x * y + beta[5] * (x * x - y * y) - back[k]
+                      - beta[6] - beta[7] * ct - beta[8] * st)  # d model / d S
+            for p in range(n_nl):
+                o = 6 + 6 * p
+                dx, dy, dnz = aux[k, o + 1], aux[k, o + 2], aux[k, o + 3]
+                jt[p, k] = (d_step * aux[k, o]
+                            + beta[3] * dnz + step * (beta[1] * dx + beta[2] * dy
+                                      + beta[4] * (dx * y + x * dy)
+                                      + beta[5] * 2.0 * (x * dx - y * dy))
+                            + (1.0 - step) * (beta[7] * aux[k, o + 4] + beta[8] * aux[k, o + 5]))
+        mat, rhs = _normal(jt, res, 0)
+        ok, delta = _solve(mat, rhs)  # mat: its Cholesky factor
+        if not ok or abs(delta[0]) > 3.0 or abs(delta[1]) > 3.0:
+            return False, cx, cy, r, 0.0, 0.0
+        cx += delta[0]
+        cy += delta[1]
+        if r_free:
+            r = min(max(r + delta[2], 0.7 * r0), 1.3 * r0)
+        for q in range(N_LIN):
+            beta[q] += delta[n_nl + q]
+        if math.hypot(cx - x0, cy - y0) > 0.5 * r0:  # diverged: not this ball
+            return False, cx, cy, r, 0.0, 0.0
+    # the centre's formal standard errors, from the last step's residual and normal equations
+    var = 0.0
+    for k in range(n):
+        var += res[k] * res[k]
+    var /= max(n - m, 1)
+    se = np.zeros(2)
+    for p in range(2):
+        e = np.zeros(m)
+        e[p] = 1.0
+        _cho_solve(mat, e)
+        se[p] = math.sqrt(max(e[p], 0.0) * var)
+    return True, cx, cy, r, se[0], se[1]
+
+
+@njit(cache=True, fastmath=True)
+def _normal(jt, res, first):
+    """The normal equations of the rows ``first:`` of the transposed Jacobian ``jt``
+    (parameters x pixels): ``J^T J`` and ``J^T res``, as dot products of contiguous rows,
+    ``fastmath`` so that the sums are vectorised (reassociated: the last bits differ from a
+    sum in order). 5x faster than NumPy's ``J.T @ J`` through BLAS on a matrix this small
+    (~150 x 9), 25x than the sums in order."""
+    m, n = jt.shape
+    size = m - first
+    mat = np.empty((size, size))
+    rhs = np.empty(size)
+    for a in range(size):
+        s = 0.0
+        for k in range(n):
+            s += jt[first + a, k] * res[k]
+        rhs[a] = s
+        for b in range(a + 1):
+            s = 0.0
+            for k in range(n):
+                s += jt[first + a, k] * jt[first + b, k]
+            mat[a, b] = s
+            mat[b, a] = s
+    return mat, rhs
+
+
+@njit(cache=True)
+def _solve(mat, rhs):
+    """``mat^-1 rhs`` for a symmetric positive definite ``mat`` (overwritten), with a ridge of
+    1e-10 of its mean diagonal; ok, solution."""
+    size = len(rhs)
+    ridge = 0.0
+    for a in range(size):
+        ridge += mat[a, a]
+    ridge *= 1e-10 / size
+    for a in range(size):
+        mat[a, a] += ridge
+    if not _cholesky(mat):
+        return False, rhs
+    out = rhs.copy()
+    _cho_solve(mat, out)
+    return True, out
+
+
+@njit(cache=True)
+def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter,
+                  z0, dzt, gt, dgt):
+    """:func:`_fit_frame` on frames ``idx`` (in time order) with velocities ``vel`` (px per
+    frame): ``(len(idx), 5)`` centre, radius and the centre's formal standard errors, NaN where
+    the fit failed. Each fit starts from the centre predicted from the two frames before, where
+    both were fitted and it is within ``PREDICT_PX`` of ``start`` (the centroid), and then
+    takes ``n_iter`` Gauss-Newton steps; from ``start`` and ``n_iter + 1`` steps otherwise."""
+    out = np.full((len(idx), 5), np.nan)
+    for n in range(len(idx)):
+        k = idx[n]
+        x0, y0, steps = start[n, 0], start[n, 1], n_iter + 1
+        if (n >= 2 and idx[n - 1] == k - 1 and idx[n - 2] == k - 2
+                and not math.isnan(out[n - 1, 0]) and not math.isnan(out[n - 2, 0])):
+            px = 2.0 * out[n - 1, 0] - out[n - 2, 0]
+            py = 2.0 * out[n - 1, 1] - out[n - 2, 1]
+            if math.hypot(px - x0, py - y0) <= PREDICT_PX:
+                x0, y0, steps = px, py, n_iter
+        ok, cx, cy, rr, se_x, se_y = _fit_frame(frames[k], bg, gains[k], x0, y0, vel[n, 0],
+                                                vel[n, 1], r, sigma, exposure, r_free, steps,
+                                                z0, dzt, gt, dgt)
+        if ok:
+            out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4] = cx, cy, rr, se_x, se_y
+    return out
+
+
+def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre: np.ndarray,
+                   method: np.ndarray, fit) -> tuple[np.ndarray, np.ndarray]:
+    """Refine, in place, the centres of the frames where the ball was found (``method``
+    ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
+    the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
+    ``SMALL_RADIUS``) and its fitted blur at most ``UNRELIABLE_BLUR`` of it. Returns the mask of
+    the frames refined (a failed fit keeps its centroid) and their centres' formal standard
+    errors ``(n, 2)`` (px; NaN where not refined). First ``RADIUS_FRAMES`` frames spread over
+    the video with the radius free, then every frame with it held at their median."""
+    from ._edge import UNRELIABLE_BLUR
+    from ._measure import CENTROID, EDGE_FIT
+
+    done = np.zeros(len(frames), bool)
+    no_se = np.full((len(frames), 2), np.nan)
+    # not where the blur is a large part of the radius: there the edge model's blur trades
+    # against the shading near the rim (docs/tracking.md section 3) and this fit, holding that
+    # blur, errs more than the centroid (benchmarks/tracking_accuracy.py, radius 5 px, blur
+    # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px)
+    if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > UNRELIABLE_BLUR * fit.radius:
+        return done, no_se
+    idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT))
+    if len(idx) < 3:
+        return done, no_se
+    found = ~np.isnan(centre[:, 0])
+    prev, nxt = np.maximum(idx - 1, 0), np.minimum(idx + 1, len(frames) - 1)
+    both = found[prev] & found[nxt] & (nxt > prev)
+    vel = np.where(both[:, None], (centre[nxt] - centre[prev]) / np.maximum(nxt - prev, 1)[:, None],
+                   0.0)
+    frames = np.ascontiguousarray(frames)
+    bg64 = np.ascontiguousarray(bg, np.float64)
+    gains = np.ascontiguousarray(gains, np.float64)
+    start = np.ascontiguousarray(centre[idx], np.float64)
+    vel = np.ascontiguousarray(vel, np.float64)
+    sub = np.unique(np.linspace(0, len(idx) - 1, min(RADIUS_FRAMES, len(idx))).round()
+                    .astype(np.int64))
+    from ._edge import _sqrt_table
+
+    zt, gt = _sqrt_table()
+    table = (float(zt[0]), float(zt[1] - zt[0]), gt, np.gradient(gt, zt))
+    first = refine_frames(frames, bg64, gains, idx[sub].astype(np.int64), start[sub], vel[sub],
+                          float(fit.radius), float(fit.sigma), float(fit.exposure), True, N_ITER,
+                          *table)
+    radii = first[:, 2][~np.isnan(first[:, 2])]
+    r = float(np.median(radii)) if len(radii) >= 3 else float(fit.radius)
+    out = refine_frames(frames, bg64, gains, idx.astype(np.int64), start, vel, r,
+                        float(fit.sigma), float(fit.exposure), False, N_ITER, *table)
+    ok = ~np.isnan(out[:, 0])
+    centre[idx[ok]] = out[ok, :2]
+    done[idx[ok]] = True
+    se = np.full((len(frames), 2), np.nan)
+    se[idx[ok]] = out[ok, 3:]
+    return done, se
+
+
+def stated_centre_sd(se: np.ndarray) -> float:
+    """The refined centres' per-frame SD (px, per coordinate) from their formal standard errors
+    ``se`` ``(n, 2)``: ``SE_FACTOR`` times their RMS. It leaves out a constant error (the
+    lighting's bias, which moves no velocity)."""
+    return SE_FACTOR * float(np.sqrt(np.mean(se**2)))
