@@ -11,7 +11,7 @@ centres against the renderer's truth over the trusted frames with the ball wholl
 (``rms_px``); how many of them the small-ball fit refined (``refined``, ``tracking/_refine.py``;
 the others are coverage centroids moved by the edge fits' offset, ``offset_px``); the mean
 error (bias); the ball's radius from the edge model. Summary: mean and largest RMS (the
-target of issue 11: 0.15 px), and the load average during the run (the machine is shared).
+target: 0.15 px, docs/tracking.md), and the load average during the run (the machine is shared).
 
 ``python benchmarks/paper_camera.py [--cache DIR]`` writes ``benchmarks/results/paper_camera.json``
 (``--cache``: keep the decoded frames there, so that a rerun tracks the same frames without

@@ -442,12 +442,17 @@ def test_the_papers_camera(tmp_path):
     assert tr.found[whole].all()  # found in every frame it is fully in
     ok = tr.trusted & whole
     assert ok.sum() >= 0.9 * whole.sum()
-    # the target of issue 11, 0.15 px RMS: measured 0.083 px (0.19 px with the coverage
-    # centroid before the small-ball fit, tracking/_refine.py); the velocities below are what
-    # the centres are for (measured z: rebound speed +0.41, angle -0.98)
+    # the target for the paper's camera, 0.15 px RMS (docs/tracking.md): measured 0.083 px
+    # (0.19 px with the coverage centroid before the small-ball fit, tracking/_refine.py); the
+    # velocities below are what the centres are for (measured z: rebound speed +0.41, angle
+    # -0.98)
     assert tr.refined[ok].mean() > 0.9
     assert rms(tr.centre[ok] - truth[ok]) < 0.15
-    fit = fit_kinematics(read_trajectory(write_track_files(video, tmp_path)["trajectory"]))
+    written = write_track_files(video, tmp_path)
+    record = json.loads(written["record"].read_text(encoding="utf-8"))
+    assert record["per_frame"]["refined"] == tr.refined.astype(int).tolist()
+    assert record["quality"]["refined_frames"] == int(tr.refined.sum())
+    fit = fit_kinematics(read_trajectory(written["trajectory"]))
     speed_sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
     assert abs(fit.rebound_speed - shot.throw.rebound_speed()) < 3 * speed_sd
     assert abs(fit.rebound_angle - shot.throw.rebound_angle()) < 3 * fit.rebound_angle_se
@@ -695,7 +700,7 @@ def test_a_small_side_lit_balls_centres_are_not_pulled_to_the_lit_side(monkeypat
     assert ok.sum() >= 80 and track.refined[ok].mean() >= 0.9
     err = track.centre[ok] - truth[ok]
     # the renderer's truth (mid-exposure centres). Measured: RMS 0.074 px, mean error (+0.06,
-    # +0.02) px; the target of issue 11 is 0.15 px RMS, and a bias below 0.1 px is what the
+    # +0.02) px; the target is 0.15 px RMS (docs/tracking.md), and a bias below 0.1 px is what the
     # lighting may leave at this blur without compression (the 32 clips of
     # benchmarks/paper_camera.py, with MJPEG or MPEG-4: |mean| up to 0.21 px at blur 0.6 px)
     assert rms(err) < 0.15

@@ -317,6 +317,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                     "flagged_frames": np.flatnonzero(tr.flag).tolist(),
                     "not_found_frames": np.flatnonzero(~found).tolist(),
                     "edge_fit_frames": np.flatnonzero(tr.method == EDGE_FIT).tolist(),
+                    "refined_frames": int(tr.refined.sum()),
                     "residual_median_grey": _optional(float(np.nanmedian(res)), 3)
                     if res.size and np.isfinite(res).any() else None,
                     "residual_max_grey": _optional(float(np.nanmax(res)), 3)
@@ -328,7 +329,9 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                       "radius_px": _floats(tr.radius), "method": tr.method.tolist(),
                       "methods": {str(k): v for k, v in METHOD_NAMES.items()},
                       "residual_grey": _floats(tr.residual, 3),
-                      "visible": _floats(tr.visible, 4), "flag": tr.flag.astype(int).tolist()},
+                      "visible": _floats(tr.visible, 4), "flag": tr.flag.astype(int).tolist(),
+                      "refined": (tr.refined.astype(int).tolist() if tr.refined.size
+                                  else [0] * n)},
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
 
