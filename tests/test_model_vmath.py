@@ -18,19 +18,20 @@ needs_long = pytest.mark.skipif(not LONG, reason="needs an extended-precision lo
 
 
 @njit
+def _map(f, a):
+    """f (a compiled scalar function) of each element of a, in a compiled loop."""
+    out = np.empty_like(a)
+    for i in range(a.size):
+        out[i] = f(a[i])
+    return out
+
+
 def _map_cbrt(a):
-    out = np.empty_like(a)
-    for i in range(a.size):
-        out[i] = _vmath.cbrt(a[i])
-    return out
+    return _map(_vmath.cbrt, a)
 
 
-@njit
 def _map_root5(a):
-    out = np.empty_like(a)
-    for i in range(a.size):
-        out[i] = _vmath.root5(a[i])
-    return out
+    return _map(_vmath.root5, a)
 
 
 @njit

@@ -282,7 +282,15 @@ def law_scales(law, m, k, eta, gy, vn):
             damping = eta * vn
         else:
             damping = eta
-    return d_star, d_star / vn, damping, damping_variable(law, damping), gy * d_star / (vn * vn)
+    t_star, gamma = time_and_gravity_scales(d_star, vn, gy)
+    return d_star, t_star, damping, damping_variable(law, damping), gamma
+
+
+@njit(cache=True, inline="always")
+def time_and_gravity_scales(d_star, vn, gy):
+    """(t*, gravity number) = (delta*/vn, gy delta*/vn^2) of :func:`law_scales` (also used
+    where delta* was computed in a vector pass, ``_fast._block_scales``)."""
+    return d_star / vn, gy * d_star / (vn * vn)
 
 
 @njit(cache=True, inline="always")

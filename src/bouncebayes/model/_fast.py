@@ -52,7 +52,8 @@ from numba import njit, prange
 from . import _kernel as K
 from ._arrays import (B_I, B_KFAC, B_M, B_R, I_ANGLE, I_E, I_ETA, I_G, I_INCL, I_MU, I_SPEED,
                       I_SPIN, LAW_CODES, all_valid, at, damping_variable, element, gravity_parts,
-                      incident_velocity, initial_force, law_scales, unit_inputs, valid)
+                      incident_velocity, initial_force, law_scales, time_and_gravity_scales,
+                      unit_inputs, valid)
 from ._config import SolverConfig
 from ._domain import HERTZ_OVERLAP_LIMIT
 from ._ode import sample, solve_rows, solve_with_segments
@@ -193,7 +194,7 @@ def normal_table(law: str) -> NormalTable:
 # Where a built table is kept, beside numba's cached kernels; its name holds a hash of every
 # source file the table depends on (and NumPy's version), so that any change rebuilds it.
 _TABLE_SOURCES = ("_fast.py", "_kernel.py", "_ode.py", "_arrays.py", "_laws.py", "_config.py",
-                  "_domain.py", "_closed_form.py", "_vmath.py", "_outputs.py")
+                  "_domain.py", "_closed_form.py", "_vmath.py")
 
 
 def _cache_path(law: str) -> Path:
@@ -559,7 +560,7 @@ def _bounce_one(values, ball, i, gx, u0, vn, scales, j, main, x_max, gamma_max, 
     r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
     mu, w0 = at(values[I_MU], i), at(values[I_SPIN], i)
     d_star, damping, x = scales[S_DSTAR, j], scales[S_DAMPING, j], scales[S_X, j]
-    t_star, gamma = d_star / vn, scales[S_GY, j] * d_star / (vn * vn)  # as law_scales
+    t_star, gamma = time_and_gravity_scales(d_star, vn, scales[S_GY, j])
     if not (x <= x_max and gamma <= gamma_max):
         return FB_DOMAIN, n_early
     piece, ux = main_piece(x, x_max)
