@@ -91,19 +91,89 @@ def test_peak_friction_of_balls_whose_slip_stops_before_the_force_peak(law, seed
     assert err[early].max() <= 5e-8, err[early].max()
 
 
+def _soa_columns(phis, targets, ppk=0.7):
+    """The early balls' vector-pass rows (``_fast.R_*``) for force series ``phis``, target
+    impulses and impulse at the force peak, with the impulse series and scale of
+    ``_early_series`` (tested below)."""
+    ns, block = _fast.NS, _fast.ROW
+    soa = np.zeros(_fast.N_ROWS_EARLY * block)
+    for k, (phi, target) in enumerate(zip(phis, targets, strict=True)):
+        soa[(_fast.R_PHI + np.arange(ns)) * block + k] = phi
+        soa[_fast.R_TARGET * block + k], soa[_fast.R_PPK * block + k] = target, ppk
+    _fast._early_series(soa, len(phis))
+    return soa
+
+
 def test_impulse_series_is_the_integral_of_the_force_series():
     """Expected: NumPy's Chebyshev product and integral (an independent implementation) of
-    (u + 1) Phi(u) from -1, scaled to the given impulse at u = 1."""
-    ns = _fast.COMPRESSION_NODES[2]
+    (u + 1) Phi(u) from -1, scaled to the given impulse at u = 1, for each ball's column."""
+    ns, block = _fast.NS, _fast.ROW
     rng = np.random.default_rng(7)
-    phi = rng.normal(size=ns) / (1.0 + np.arange(ns)) ** 2
-    ab = np.concatenate([np.zeros(ns + 2), phi])
-    scale = _fast._impulse_series(ab, ns, 0.7, np.empty(ns + 1))
+    phis = rng.normal(size=(5, ns)) / (1.0 + np.arange(ns)) ** 2
+    soa = _soa_columns(phis, np.full(5, 0.1), ppk=0.7)
+    rows = soa.reshape(_fast.N_ROWS_EARLY, block)
     cheb = np.polynomial.chebyshev
-    integral = cheb.chebint(cheb.chebmul([1.0, 1.0], phi), lbnd=-1)
-    expected = integral * 0.7 / cheb.chebval(1.0, integral)
-    np.testing.assert_allclose(ab[:ns + 2], expected, rtol=0, atol=1e-14)
-    assert scale == pytest.approx(0.7 / cheb.chebval(1.0, integral), rel=1e-14)
+    for k, phi in enumerate(phis):
+        integral = cheb.chebint(cheb.chebmul([1.0, 1.0], phi), lbnd=-1)
+        expected = integral * 0.7 / cheb.chebval(1.0, integral)
+        np.testing.assert_allclose(rows[_fast.R_PI:_fast.R_PI + ns + 2, k], expected, rtol=0,
+                                   atol=1e-14)
+        assert rows[_fast.R_SCALE, k] == pytest.approx(0.7 / cheb.chebval(1.0, integral),
+                                                       rel=1e-14)
+
+
+def test_series_pair_is_numpys_chebval():
+    """Expected: numpy.polynomial.chebyshev.chebval (an independent implementation) of the
+    impulse's NS + 2 and the force's NS coefficients of a column, at u across [-1, 1]."""
+    ns, block = _fast.NS, _fast.ROW
+    rng = np.random.default_rng(8)
+    soa = rng.normal(size=_fast.N_ROWS_EARLY * block)
+    rows = soa.reshape(_fast.N_ROWS_EARLY, block)
+    for k, u in enumerate(np.linspace(-1.0, 1.0, 9)):
+        pi, phi = _fast._series_pair(soa, k, u)
+        cheb = np.polynomial.chebyshev
+        assert pi == pytest.approx(cheb.chebval(u, rows[_fast.R_PI:_fast.R_PI + ns + 2, k]),
+                                   rel=1e-13, abs=1e-13)
+        assert phi == pytest.approx(cheb.chebval(u, rows[_fast.R_PHI:_fast.R_PHI + ns, k]),
+                                    rel=1e-13, abs=1e-13)
+
+
+def test_early_roots_agree_with_brentq_and_settle_what_the_vector_pass_leaves():
+    """The force when the impulse reaches a target, for the compression table's own series at
+    random points and for a force exp(12 (sigma - 1)), unlike any compression (the two-term
+    model's start is then ~8 % off, and Newton needs more than the vector pass's four steps:
+    the ball is searched again one at a time). Expected: SciPy's brentq on NumPy's chebval of the impulse
+    series (independent of the passes), then chebval of the force at the root."""
+    from scipy.optimize import brentq
+
+    ns, block = _fast.NS, _fast.ROW
+    table = _fast.normal_table("kelvin-voigt")
+    rng = np.random.default_rng(9)
+    phis = []
+    for _ in range(40):  # the table's force series at random damping and gravity nodes
+        piece = table.compression[rng.integers(table.compression.shape[0])]  # (ns, nx, ng)
+        ux, ug = rng.uniform(-1, 1, 2)
+        tx = np.polynomial.chebyshev.chebvander(ux, piece.shape[1] - 1)[0]
+        tg = np.polynomial.chebyshev.chebvander(ug, piece.shape[2] - 1)[0]
+        phis.append(np.einsum("sij,i,j->s", piece, tx, tg))
+    sigma = np.linspace(0.0, 1.0, 2001)
+    steep = np.polynomial.chebyshev.chebfit(2 * sigma - 1, np.exp(12.0 * (sigma - 1.0)), ns - 1)
+    phis.append(steep)
+    targets = list(rng.uniform(0.0, 1.0, 40) ** 2 * 0.7) + [0.35]
+    soa = _soa_columns(phis, targets)
+    res = np.zeros(3 * block)
+    _fast.early_roots(soa, len(phis), res, np.empty(2 * ns + 2), np.empty(ns + 2))
+    ok = res[_fast.R_OK * block:_fast.R_OK * block + len(phis)]
+    assert ok[:40].mean() >= 0.9 and ok[40] == 0.0  # the steep force needed the second search
+    rows = soa.reshape(_fast.N_ROWS_EARLY, block)
+    cheb = np.polynomial.chebyshev
+    for k, target in enumerate(targets):
+        pi_series = rows[_fast.R_PI:_fast.R_PI + ns + 2, k]
+        root = brentq(lambda s, c=pi_series, t=target: cheb.chebval(2 * s - 1, c) - t,
+                      0.0, 1.0, xtol=1e-15, rtol=1e-15)
+        expected = cheb.chebval(2 * root - 1, rows[_fast.R_PHI:_fast.R_PHI + ns, k])
+        force = res[_fast.R_FORCE * block + k]
+        assert force == pytest.approx(expected, rel=1e-9, abs=1e-12), k
 
 
 def test_rigid_body_closed_form_is_what_the_fast_path_applies():

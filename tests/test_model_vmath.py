@@ -108,16 +108,25 @@ def _host_has_avx2() -> bool:
 
 
 @pytest.mark.skipif(not _host_has_avx2(), reason="vector code is checked on AVX2 processors")
-@pytest.mark.parametrize("kernel", ["_block_scales", "_block_speed_angle"])
+@pytest.mark.parametrize("kernel", ["_block_scales", "_block_speed_angle", "_early_series",
+                                    "_early_start", "_early_newton"])
 def test_block_passes_compile_to_vector_code(kernel):
-    """The reason for _vmath: the block passes of the closed-form kernel divide and take square
-    roots four elements at a time (ymm registers). Compiled afresh (no cache, whose code
-    cannot be inspected) from the kernel's own source."""
+    """The reason for _vmath and for the passes: the block passes of the closed-form kernel
+    divide four elements at a time (ymm registers). Compiled afresh (no cache, whose code cannot be inspected) from the
+    kernel's own source, after the functions of _vmath were compiled for a caller with
+    Python's error model (which, were it inherited, would keep the loops scalar)."""
+    njit(lambda a: _vmath.root5(a) + _vmath.cbrt(a) + _vmath.atan2(a, a)
+         + _vmath.sincos_deg(a)[0])(2.0)
     fn = getattr(_fast, kernel)
     fresh = njit(error_model="numpy")(fn.py_func)
+    soa, res = np.full(_fast.N_ROWS_EARLY * _fast.ROW, 0.5), np.zeros(3 * _fast.ROW)
     if kernel == "_block_scales":
         fresh(1.0, 0, 256, np.full((_fast.N_SCALES, 256), 0.5))
-    else:
+    elif kernel == "_block_speed_angle":
         fresh(np.full((N_OUT, 512), 0.5), 0, 256)
+    elif kernel == "_early_series":
+        fresh(soa, 256)
+    else:
+        fresh(soa, 256, res)
     asm = fresh.inspect_asm(fresh.signatures[0])
     assert re.search(r"vdivpd[^\n]*ymm", asm), f"{kernel}: no vector division"

@@ -84,7 +84,7 @@ PRECONTRACT_BYTES = 16 * 2**20
 # sqrt(t) there, so that Phi is smooth in sigma), the damping variable and the gravity number;
 # the damping axis split into COMPRESSION_PIECES equal intervals, each with its own Chebyshev
 # nodes. The impulse is not tabulated: it is the integral of the force, taken exactly on the
-# Chebyshev series (:func:`_impulse_series`). 16 pieces of 6 x 5 x 20 terms (600 a bounce)
+# Chebyshev series (:func:`_early_series`). 16 pieces of 6 x 5 x 20 terms (600 a bounce)
 # give the force within ~2e-8 of tight ODE solutions at random points of the Kelvin–Voigt,
 # Hunt–Crossley and linear boxes, as 4 pieces of 10 x 8 x 20 terms did (the floor of the ODE's
 # dense output the table is built from; 8 x 5 x 16 or 6 x 4 x 20 terms are 3-10x worse); the
@@ -147,8 +147,9 @@ class NormalTable:
     @property
     def compression_gravity_first(self) -> np.ndarray:
         """The compression table as the kernels read it: (piece, n_gravity,
-        n_sigma * n_damping)."""
-        return np.ascontiguousarray(np.stack([_gravity_first(c) for c in self.compression]))
+        n_damping * n_sigma), sigma fastest (:func:`_compression_series`)."""
+        return np.ascontiguousarray(self.compression.transpose(0, 3, 2, 1).reshape(
+            self.compression.shape[0], self.compression.shape[3], -1))
 
 
 def _gravity_first(coef: np.ndarray) -> np.ndarray:
@@ -277,7 +278,7 @@ def _solve_unit(law: str, damping: np.ndarray, gamma: np.ndarray) -> np.ndarray:
 
 def _compression_table(law: str, x_max: float, gamma_max: float, power: float) -> np.ndarray:
     """Chebyshev coefficients, per damping piece, of the force Phi at sigma = sqrt(t / t_peak)
-    (the impulse follows from it: :func:`_impulse_series`)."""
+    (the impulse follows from it: :func:`_early_series`)."""
     nx, ng, ns = COMPRESSION_NODES
     cx, cg, cs = _cheb_nodes(nx), _cheb_nodes(ng), _cheb_nodes(ns)
     edges = np.linspace(0.0, x_max, COMPRESSION_PIECES + 1)
@@ -455,44 +456,6 @@ def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
 
 
 @njit(cache=True, inline="always")
-def _first_guess(ab, ns, target, scale):
-    """Root of the two-term model Pi ~ alpha sigma^2 + beta sigma^5 of the compression: alpha
-    from Pi''(0) = 4 scale Phi(0) (:func:`_impulse_series`; the initial force of Kelvin–Voigt),
-    beta from Pi(1); both
-    sums are free (T_k(1) = 1, T_k(-1) = (-1)^k). Newton on the model from the smaller of the
-    roots of its two terms alone (each at or beyond the model's root, the smaller within a
-    factor 2^(1/2) of it), so that the iterates descend onto it in a few steps; from
-    (target / Pi(1))^(1/5) alone, where the first term dominates, each step took a fifth off
-    sigma."""
-    pi_end = 0.0
-    phi_start = 0.0
-    sign = 1.0
-    for i in range(ns + 2):
-        pi_end += ab[i]
-    for i in range(ns):
-        phi_start += sign * ab[ns + 2 + i]
-        sign = -sign
-    if not pi_end > 0.0:
-        return 1.0
-    sigma = min(1.0, root5(target / pi_end))
-    alpha = max(2.0 * scale * phi_start, 0.0)
-    beta = pi_end - alpha
-    if beta <= 0.0:
-        return sigma
-    if alpha > 0.0:
-        sigma = min(sigma, math.sqrt(target / alpha))
-    for _ in range(12):
-        s2 = sigma * sigma
-        s4 = s2 * s2
-        f = alpha * s2 + beta * s4 * sigma - target
-        step = f / (2.0 * alpha * sigma + 5.0 * beta * s4)
-        sigma -= step
-        if abs(step) <= 1e-3 * sigma:  # the model is only good to a few per cent anyway
-            break
-    return min(max(sigma, 0.0), 1.0)
-
-
-@njit(cache=True, inline="always")
 def _impulse_force(ab, ns, u, tx):
     """(Pi, Phi) of the compression series at u = 2 sigma - 1 (one basis for both; ``ab``:
     the ns + 2 coefficients of Pi, then the ns of Phi, ns even)."""
@@ -506,45 +469,6 @@ def _impulse_force(ab, ns, u, tx):
     a0 += ab[ns] * tx[ns]
     a1 += ab[ns + 1] * tx[ns + 1]
     return a0 + a1, b0 + b1
-
-
-@njit(cache=True, inline="always")
-def _impulse_series(ab, ns, ppk, c):
-    """The impulse's Chebyshev series from the force's, in place: with dt = 2 t_peak sigma
-    dsigma and u = 2 sigma - 1, Pi(u) is proportional to I(u), the integral from -1 of
-    (u + 1) Phi (the product by u + 1 and the integral are exact recurrences on the
-    coefficients: u T_k = (T_{k+1} + T_{|k-1|}) / 2, the integral of T_k is
-    T_{k+1} / (2(k+1)) - T_{k-1} / (2(k-1))). Scaled so that Pi(1) is the main table's impulse
-    at the force peak ``ppk`` (accurate to ~1e-10, where t_peak is ~3e-8). ``ab``: the force's
-    ns coefficients at ab[ns + 2:], the impulse's ns + 2 written to ab[:ns + 2]; ``c``:
-    scratch of ns + 1. Returns the scale (Pi = scale I, dPi/dsigma = 4 scale sigma Phi)."""
-    b = ab[ns + 2:]
-    for j in range(ns + 1):  # c = (u + 1) Phi
-        cj = b[j] if j < ns else 0.0
-        if j == 1:
-            cj += b[0]
-        elif j >= 2:
-            cj += 0.5 * b[j - 1]
-        if j + 1 < ns:
-            cj += 0.5 * b[j + 1]
-        c[j] = cj
-    n = ns + 1
-    ab[1] = c[0] - 0.5 * c[2]
-    for k in range(2, n + 1):
-        ab[k] = ((c[k - 1] if k - 1 < n else 0.0) - (c[k + 1] if k + 1 < n else 0.0)) / (2 * k)
-    total = 0.0
-    sign = -1.0
-    start = 0.0
-    for k in range(1, n + 1):
-        total += ab[k]
-        start += sign * ab[k]
-        sign = -sign
-    ab[0] = -start  # I(-1) = 0
-    total += ab[0]
-    scale = ppk / total
-    for k in range(n + 1):
-        ab[k] *= scale
-    return scale
 
 
 @njit(cache=True, inline="always")
@@ -661,16 +585,315 @@ def _block_speed_angle(out, i0, n):
         speed[j], angle[j] = speed_angle(u[j], vn[j])
 
 
-# What the second pass of :func:`bounce_range` needs of a ball whose slip stops before the
-# force peak (the last five: the state of its root search in :func:`_early_forces`).
-(E_INDEX, E_X, E_GAMMA, E_MU, E_PPK, E_DAMPING, E_FSCALE, E_PIECE, E_TARGET, E_SIGMA, E_LO,
- E_HI, E_ACTIVE, E_SCALE) = range(14)
-N_EARLY = 14
+# What the last pass of :func:`bounce_range` needs of a ball whose slip stops before the force
+# peak (E_SIGMA: at the end, the scaled normal force when the slip stops).
+(E_INDEX, E_X, E_GAMMA, E_MU, E_PPK, E_DAMPING, E_FSCALE, E_PIECE, E_TARGET,
+ E_SIGMA) = range(10)
+N_EARLY = 10
 BLOCK = 256  # elements per pass pair of bounce_range: its scratch stays in the L1 cache
+NS = COMPRESSION_NODES[2]  # the compression table's terms in sigma
+# The rows of the early balls' vector pass (:func:`_early_newton`), one column per ball: the
+# impulse's NS + 2 Chebyshev coefficients, the force's NS, the impulse the slip needs, the
+# impulse series' scale and the impulse at the force peak; and of its results.
+R_PI, R_PHI, R_TARGET, R_SCALE, R_PPK = 0, NS + 2, 2 * NS + 2, 2 * NS + 3, 2 * NS + 4
+N_ROWS_EARLY = 2 * NS + 5
+R_FORCE, R_ROOT, R_OK = range(3)
+# Their rows lie ROW values apart, a stride that is not a multiple of 4 KiB: at BLOCK's 2 KiB,
+# the 42 rows of a ball's column shared two sets of the first-level cache, whose 16 lines the
+# passes then evicted again and again (filling a column took 3x the time, measured).
+ROW = BLOCK + 8
+if NS != 20:  # pragma: no cover - a guard for whoever changes COMPRESSION_NODES
+    raise ImportError("_series_pair and _early_series are written out for 20 terms in sigma")
+# The vector pass (:func:`_early_newton`) takes four Newton steps from the two-term model's
+# start (MODEL_STEPS steps on the model; within ~5 % of the root): enough to reach the root to
+# ~1e-11 for ~99 % of the balls of the prior box (the last step at most NEWTON_TOL, then
+# quadratic); a ball whose last step is larger, or left the bracket, is searched again one at
+# a time (:func:`_early_search`).
+MODEL_STEPS = 4
+NEWTON_TOL = 3e-6  # a last step this small leaves ~1e-11 (quadratic convergence)
 
 
 @njit(cache=True, inline="always")
-def _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx, work, ab, out):
+def _compression_series(cp, gamma, gamma_max, u, work, out):
+    """The force's NS Chebyshev coefficients in sigma of one ball, its piece ``cp`` of the
+    compression table (n_gravity, n_damping * NS) contracted at gravity number ``gamma`` and
+    the piece's damping variable ``u``: the gravity axis into ``work`` (:func:`gravity_rows5`),
+    then the damping axis, six terms over the NS coefficients side by side (both loops run
+    over contiguous coefficients, so they compile to vector code)."""
+    gravity_rows5(cp, gamma, gamma_max, 0, cp.shape[1], work)
+    u2 = 2.0 * u * u - 1.0
+    u3 = 2.0 * u * u2 - u
+    u4 = 2.0 * u2 * u2 - 1.0
+    u5 = 2.0 * u4 * u - u3
+    w0, w1, w2 = work[0:NS], work[NS:2 * NS], work[2 * NS:3 * NS]
+    w3, w4, w5 = work[3 * NS:4 * NS], work[4 * NS:5 * NS], work[5 * NS:6 * NS]
+    for s in range(NS):
+        out[s] = w0[s] + w1[s] * u + w2[s] * u2 + w3[s] * u3 + w4[s] * u4 + w5[s] * u5
+
+
+@njit(cache=True, inline="always")
+def _series_pair(soa, k, u):
+    """(Pi, Phi) of ball ``k`` of the vector pass at u = 2 sigma - 1: the Chebyshev basis by
+    doubling (T_2j = 2 T_j^2 - 1, T_2j+1 = 2 T_j+1 T_j - u, as :func:`cheb_basis`: a tree of
+    depth ~log2(NS), where Clenshaw's recurrence is a chain of NS dependent steps, on the
+    critical path of every Newton step), then both sums in four partial sums each; written
+    out in local variables, so that the pass's loop over balls compiles to vector code."""
+    t1 = u
+    t2 = 2.0 * u * u - 1.0
+    t3 = 2.0 * t2 * u - u
+    t4 = 2.0 * t2 * t2 - 1.0
+    t5 = 2.0 * t3 * t2 - u
+    t6 = 2.0 * t3 * t3 - 1.0
+    t7 = 2.0 * t4 * t3 - u
+    t8 = 2.0 * t4 * t4 - 1.0
+    t9 = 2.0 * t5 * t4 - u
+    t10 = 2.0 * t5 * t5 - 1.0
+    t11 = 2.0 * t6 * t5 - u
+    t12 = 2.0 * t6 * t6 - 1.0
+    t13 = 2.0 * t7 * t6 - u
+    t14 = 2.0 * t7 * t7 - 1.0
+    t15 = 2.0 * t8 * t7 - u
+    t16 = 2.0 * t8 * t8 - 1.0
+    t17 = 2.0 * t9 * t8 - u
+    t18 = 2.0 * t9 * t9 - 1.0
+    t19 = 2.0 * t10 * t9 - u
+    t20 = 2.0 * t10 * t10 - 1.0
+    t21 = 2.0 * t11 * t10 - u
+    p0 = soa[R_PI * ROW + k] + soa[(R_PI + 4) * ROW + k] * t4
+    p0 += soa[(R_PI + 8) * ROW + k] * t8 + soa[(R_PI + 12) * ROW + k] * t12
+    p0 += soa[(R_PI + 16) * ROW + k] * t16 + soa[(R_PI + 20) * ROW + k] * t20
+    p1 = soa[(R_PI + 1) * ROW + k] * t1 + soa[(R_PI + 5) * ROW + k] * t5
+    p1 += soa[(R_PI + 9) * ROW + k] * t9 + soa[(R_PI + 13) * ROW + k] * t13
+    p1 += soa[(R_PI + 17) * ROW + k] * t17 + soa[(R_PI + 21) * ROW + k] * t21
+    p2 = soa[(R_PI + 2) * ROW + k] * t2 + soa[(R_PI + 6) * ROW + k] * t6
+    p2 += soa[(R_PI + 10) * ROW + k] * t10 + soa[(R_PI + 14) * ROW + k] * t14
+    p2 += soa[(R_PI + 18) * ROW + k] * t18
+    p3 = soa[(R_PI + 3) * ROW + k] * t3 + soa[(R_PI + 7) * ROW + k] * t7
+    p3 += soa[(R_PI + 11) * ROW + k] * t11 + soa[(R_PI + 15) * ROW + k] * t15
+    p3 += soa[(R_PI + 19) * ROW + k] * t19
+    f0 = soa[R_PHI * ROW + k] + soa[(R_PHI + 4) * ROW + k] * t4
+    f0 += soa[(R_PHI + 8) * ROW + k] * t8 + soa[(R_PHI + 12) * ROW + k] * t12
+    f0 += soa[(R_PHI + 16) * ROW + k] * t16
+    f1 = soa[(R_PHI + 1) * ROW + k] * t1 + soa[(R_PHI + 5) * ROW + k] * t5
+    f1 += soa[(R_PHI + 9) * ROW + k] * t9 + soa[(R_PHI + 13) * ROW + k] * t13
+    f1 += soa[(R_PHI + 17) * ROW + k] * t17
+    f2 = soa[(R_PHI + 2) * ROW + k] * t2 + soa[(R_PHI + 6) * ROW + k] * t6
+    f2 += soa[(R_PHI + 10) * ROW + k] * t10 + soa[(R_PHI + 14) * ROW + k] * t14
+    f2 += soa[(R_PHI + 18) * ROW + k] * t18
+    f3 = soa[(R_PHI + 3) * ROW + k] * t3 + soa[(R_PHI + 7) * ROW + k] * t7
+    f3 += soa[(R_PHI + 11) * ROW + k] * t11 + soa[(R_PHI + 15) * ROW + k] * t15
+    f3 += soa[(R_PHI + 19) * ROW + k] * t19
+    return (p0 + p1) + (p2 + p3), (f0 + f1) + (f2 + f3)
+
+
+@njit(cache=True, inline="always")
+def _model_guess(soa, k, target, scale, ppk):
+    """Start of ball ``k``'s root search: the root of the two-term model
+    Pi ~ alpha sigma^2 + beta sigma^5 of the compression, alpha from Pi''(0) = 4 scale Phi(0)
+    (:func:`_early_series`; the initial force of Kelvin–Voigt), beta from Pi(1) = ppk; both
+    sums are free (T_k(1) = 1, T_k(-1) = (-1)^k). Newton on the model from the smaller of the
+    roots of its two terms alone (each at or beyond the model's root, the smaller within a
+    factor 2^(1/2) of it), so that the iterates descend onto it; from (target / Pi(1))^(1/5)
+    alone, where the first term dominates, each step took a fifth off sigma. The model is
+    good to a few per cent, which the Newton steps on the series then take off."""
+    even = odd = 0.0
+    for i in range(0, NS, 2):
+        even += soa[(R_PHI + i) * ROW + k]
+        odd += soa[(R_PHI + i + 1) * ROW + k]
+    alpha = max(2.0 * scale * (even - odd), 0.0)
+    beta = ppk - alpha
+    start = min(1.0, root5(target / ppk))
+    sigma = min(start, math.sqrt(target / alpha))  # inf where alpha = 0
+    for _ in range(MODEL_STEPS):
+        s2 = sigma * sigma
+        s4 = s2 * s2
+        sigma -= (alpha * s2 + beta * s4 * sigma - target) / (2.0 * alpha * sigma + 5.0 * beta * s4)
+    sigma = min(max(sigma, 0.0), 1.0)
+    return sigma if beta > 0.0 else start
+
+
+@njit(cache=True, inline="always")
+def _newton_step(soa, k, sigma, lo, hi, target, scale):
+    """One safeguarded Newton step on Pi(sigma) = target with dPi/dsigma = 4 scale sigma Phi
+    (dPi/dt = Phi): the bracket [lo, hi] updated, a step out of it replaced by bisection.
+    Returns (sigma, lo, hi, the Newton step, whether it stayed in the bracket)."""
+    pi, phi = _series_pair(soa, k, 2.0 * sigma - 1.0)
+    f = pi - target
+    hi = sigma if f > 0.0 else hi
+    lo = lo if f > 0.0 else sigma
+    slope = phi * 4.0 * sigma * scale
+    step = f / slope if slope > 0.0 else math.inf
+    new = sigma - step
+    inside = lo <= new and new <= hi
+    return (new if inside else 0.5 * (lo + hi)), lo, hi, step, inside
+
+
+@njit(cache=True, error_model="numpy")
+def _early_series(soa, n):
+    """The impulse's Chebyshev series of balls [0, n) of ``soa`` from their force's, into rows
+    R_PI.. (and the scale into R_SCALE): with dt = 2 t_peak sigma dsigma and u = 2 sigma - 1,
+    Pi(u) is proportional to I(u), the integral from -1 of (u + 1) Phi (the product by u + 1
+    and the integral are exact recurrences on the coefficients: u T_j = (T_j+1 + T_|j-1|) / 2;
+    the integral of T_j is T_j+1 / (2(j+1)) - T_j-1 / (2(j-1)), of T_0 T_1), scaled so that
+    Pi(1) is the main table's impulse at the force peak R_PPK (accurate to ~1e-10, where
+    t_peak is ~3e-8); the scale s gives Pi = s I and dPi/dsigma = 4 s sigma Phi. Written out
+    for NS = 20 in local variables (c_j: the coefficients of (u + 1) Phi, a_q: of I), so that
+    the loop over balls compiles to vector code."""
+    for k in range(n):
+        b0 = soa[R_PHI * ROW + k]
+        b1 = soa[(R_PHI + 1) * ROW + k]
+        b2 = soa[(R_PHI + 2) * ROW + k]
+        b3 = soa[(R_PHI + 3) * ROW + k]
+        b4 = soa[(R_PHI + 4) * ROW + k]
+        b5 = soa[(R_PHI + 5) * ROW + k]
+        b6 = soa[(R_PHI + 6) * ROW + k]
+        b7 = soa[(R_PHI + 7) * ROW + k]
+        b8 = soa[(R_PHI + 8) * ROW + k]
+        b9 = soa[(R_PHI + 9) * ROW + k]
+        b10 = soa[(R_PHI + 10) * ROW + k]
+        b11 = soa[(R_PHI + 11) * ROW + k]
+        b12 = soa[(R_PHI + 12) * ROW + k]
+        b13 = soa[(R_PHI + 13) * ROW + k]
+        b14 = soa[(R_PHI + 14) * ROW + k]
+        b15 = soa[(R_PHI + 15) * ROW + k]
+        b16 = soa[(R_PHI + 16) * ROW + k]
+        b17 = soa[(R_PHI + 17) * ROW + k]
+        b18 = soa[(R_PHI + 18) * ROW + k]
+        b19 = soa[(R_PHI + 19) * ROW + k]
+        c0 = b0 + 0.5 * b1
+        c1 = b1 + b0 + 0.5 * b2
+        c2 = b2 + 0.5 * b1 + 0.5 * b3
+        c3 = b3 + 0.5 * b2 + 0.5 * b4
+        c4 = b4 + 0.5 * b3 + 0.5 * b5
+        c5 = b5 + 0.5 * b4 + 0.5 * b6
+        c6 = b6 + 0.5 * b5 + 0.5 * b7
+        c7 = b7 + 0.5 * b6 + 0.5 * b8
+        c8 = b8 + 0.5 * b7 + 0.5 * b9
+        c9 = b9 + 0.5 * b8 + 0.5 * b10
+        c10 = b10 + 0.5 * b9 + 0.5 * b11
+        c11 = b11 + 0.5 * b10 + 0.5 * b12
+        c12 = b12 + 0.5 * b11 + 0.5 * b13
+        c13 = b13 + 0.5 * b12 + 0.5 * b14
+        c14 = b14 + 0.5 * b13 + 0.5 * b15
+        c15 = b15 + 0.5 * b14 + 0.5 * b16
+        c16 = b16 + 0.5 * b15 + 0.5 * b17
+        c17 = b17 + 0.5 * b16 + 0.5 * b18
+        c18 = b18 + 0.5 * b17 + 0.5 * b19
+        c19 = b19 + 0.5 * b18
+        c20 = 0.5 * b19
+        a1 = c0 - 0.5 * c2
+        a2 = (c1 - c3) * 0.25  # / 4
+        a3 = (c2 - c4) * 0.16666666666666666  # / 6
+        a4 = (c3 - c5) * 0.125  # / 8
+        a5 = (c4 - c6) * 0.1  # / 10
+        a6 = (c5 - c7) * 0.08333333333333333  # / 12
+        a7 = (c6 - c8) * 0.07142857142857142  # / 14
+        a8 = (c7 - c9) * 0.0625  # / 16
+        a9 = (c8 - c10) * 0.05555555555555555  # / 18
+        a10 = (c9 - c11) * 0.05  # / 20
+        a11 = (c10 - c12) * 0.045454545454545456  # / 22
+        a12 = (c11 - c13) * 0.041666666666666664  # / 24
+        a13 = (c12 - c14) * 0.038461538461538464  # / 26
+        a14 = (c13 - c15) * 0.03571428571428571  # / 28
+        a15 = (c14 - c16) * 0.03333333333333333  # / 30
+        a16 = (c15 - c17) * 0.03125  # / 32
+        a17 = (c16 - c18) * 0.029411764705882353  # / 34
+        a18 = (c17 - c19) * 0.027777777777777776  # / 36
+        a19 = (c18 - c20) * 0.02631578947368421  # / 38
+        a20 = c19 * 0.025  # / 40
+        a21 = c20 * 0.023809523809523808  # / 42
+        total = a1 + a2 + a3 + a4 + a5 + a6 + a7 + a8
+        total += a9 + a10 + a11 + a12 + a13 + a14 + a15 + a16
+        total += a17 + a18 + a19 + a20 + a21
+        start = -a1 + a2 - a3 + a4 - a5 + a6 - a7 + a8
+        start += -a9 + a10 - a11 + a12 - a13 + a14 - a15 + a16
+        start += -a17 + a18 - a19 + a20 - a21
+        a0 = -start  # I(-1) = 0
+        scale = soa[R_PPK * ROW + k] / (total + a0)
+        soa[R_SCALE * ROW + k] = scale
+        soa[R_PI * ROW + k] = a0 * scale
+        soa[(R_PI + 1) * ROW + k] = a1 * scale
+        soa[(R_PI + 2) * ROW + k] = a2 * scale
+        soa[(R_PI + 3) * ROW + k] = a3 * scale
+        soa[(R_PI + 4) * ROW + k] = a4 * scale
+        soa[(R_PI + 5) * ROW + k] = a5 * scale
+        soa[(R_PI + 6) * ROW + k] = a6 * scale
+        soa[(R_PI + 7) * ROW + k] = a7 * scale
+        soa[(R_PI + 8) * ROW + k] = a8 * scale
+        soa[(R_PI + 9) * ROW + k] = a9 * scale
+        soa[(R_PI + 10) * ROW + k] = a10 * scale
+        soa[(R_PI + 11) * ROW + k] = a11 * scale
+        soa[(R_PI + 12) * ROW + k] = a12 * scale
+        soa[(R_PI + 13) * ROW + k] = a13 * scale
+        soa[(R_PI + 14) * ROW + k] = a14 * scale
+        soa[(R_PI + 15) * ROW + k] = a15 * scale
+        soa[(R_PI + 16) * ROW + k] = a16 * scale
+        soa[(R_PI + 17) * ROW + k] = a17 * scale
+        soa[(R_PI + 18) * ROW + k] = a18 * scale
+        soa[(R_PI + 19) * ROW + k] = a19 * scale
+        soa[(R_PI + 20) * ROW + k] = a20 * scale
+        soa[(R_PI + 21) * ROW + k] = a21 * scale
+
+
+@njit(cache=True, error_model="numpy")
+def _early_start(soa, n, res):
+    """The start of the root search of balls [0, n) of ``soa`` (:func:`_model_guess`) into
+    ``res[R_ROOT]``: a pass of its own, which compiles to vector code (joined to the Newton
+    steps' pass, the loop stayed scalar)."""
+    for k in range(n):
+        target = soa[R_TARGET * ROW + k]
+        scale, ppk = soa[R_SCALE * ROW + k], soa[R_PPK * ROW + k]
+        res[R_ROOT * ROW + k] = _model_guess(soa, k, target, scale, ppk)
+
+
+@njit(cache=True, error_model="numpy")
+def _early_newton(soa, n, res):
+    """The force when the impulse reaches the slip's need, for balls [0, n) of ``soa`` (rows
+    ``R_*``), into ``res[R_FORCE]``: from the start in ``res[R_ROOT]`` (:func:`_early_start`)
+    four Newton steps written out, with no branch but selects, so that the
+    loop over balls compiles to 4-wide vector code (one search after another was a long chain
+    of dependent operations and unpredictable exits). ``res[R_OK]`` is 0 where the last step
+    was not below NEWTON_TOL or left the bracket (searched again by :func:`_early_search`)."""
+    for k in range(n):
+        target, scale = soa[R_TARGET * ROW + k], soa[R_SCALE * ROW + k]
+        sigma, lo, hi = res[R_ROOT * ROW + k], 0.0, 1.0
+        sigma, lo, hi, step, inside = _newton_step(soa, k, sigma, lo, hi, target, scale)
+        sigma, lo, hi, step, inside = _newton_step(soa, k, sigma, lo, hi, target, scale)
+        sigma, lo, hi, step, inside = _newton_step(soa, k, sigma, lo, hi, target, scale)
+        sigma, lo, hi, step, inside = _newton_step(soa, k, sigma, lo, hi, target, scale)
+        res[R_FORCE * ROW + k] = _series_pair(soa, k, 2.0 * sigma - 1.0)[1]
+        res[R_OK * ROW + k] = 1.0 if (inside and abs(step) <= NEWTON_TOL) else 0.0
+
+
+@njit(cache=True, inline="always")
+def _early_search(ab, target, scale, tx):
+    """The force at Pi(sigma) = target for one ball (``ab``: its impulse's coefficients, then
+    its force's), by safeguarded Newton steps from sigma = 1 until the step is below
+    NEWTON_TOL (Pi is increasing and convex in sigma and the root lies below 1, so that the
+    iterates descend onto it; a bracket catches any step that would leave it): the ball that
+    :func:`_early_newton` did not settle."""
+    sigma, lo, hi = 1.0, 0.0, 1.0
+    for _ in range(200):
+        pi, phi = _impulse_force(ab, NS, 2.0 * sigma - 1.0, tx)
+        f = pi - target
+        if f > 0.0:
+            hi = sigma
+        else:
+            lo = sigma
+        slope = phi * 4.0 * sigma * scale
+        step = f / slope if slope > 0.0 else math.inf
+        if abs(step) <= NEWTON_TOL:
+            sigma -= step
+            break
+        new = sigma - step
+        sigma = new if lo <= new <= hi else 0.5 * (lo + hi)
+        if hi - lo <= 1e-12:
+            break
+    return _impulse_force(ab, NS, 2.0 * sigma - 1.0, tx)[1]
+
+
+@njit(cache=True, inline="always")
+def _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, scratch, out):
     """Peak friction of the balls whose slip stops before the force peak (``early`` of
     :func:`_bounce_one`): mu times the normal force when the impulse reaches the slip's need
     (:func:`_early_forces`), the balls taken piece by piece of the compression table (a
@@ -688,7 +911,7 @@ def _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx,
         piece = int(early[j, E_PIECE])
         sel[counts[piece]] = j
         counts[piece] += 1
-    _early_forces(comp, sel, n_early, early, x_max, gamma_max, work, tx, ab)
+    _early_forces(comp, sel, n_early, early, x_max, gamma_max, scratch)
     for k in range(n_early):
         e = early[k]
         out[O_FT, int(e[E_INDEX])] = (e[E_MU] * max(e[E_SIGMA], initial_force(
@@ -696,63 +919,57 @@ def _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx,
 
 
 @njit(cache=True, inline="always")
-def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, work, tx, ab):
+def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, scratch):
     """Normal force (scaled) when the impulse reaches ``E_TARGET`` during compression, for the
     elements ``sel[:n_sel]`` of ``early`` (each in its piece ``E_PIECE`` of the compression
-    table), into their ``E_SIGMA`` row.
+    table), into their ``E_SIGMA`` field.
 
     The compression table gives the force Phi as a Chebyshev series in
-    sigma = sqrt(t / t_peak), and :func:`_impulse_series` the impulse Pi; Pi(sigma) = target
-    is solved by Newton's method with dPi/dsigma = 4 scale sigma Phi (dPi/dt = Phi). Pi is increasing and convex in sigma, and
-    sigma_0 = (target / Pi(1))^(1/5) lies at or beyond the root (Pi grows at most like
-    sigma^5, the undamped start), so the iterates descend onto it; a bracket catches any
-    step that would leave it. The searches advance side by side (one Newton step of each
-    element per round): one search is a long chain of dependent operations, and the processor
-    overlaps the chains of different elements. ``ab``: (BLOCK, 2 n_sigma) scratch."""
-    n_pieces, ns = comp.shape[0], COMPRESSION_NODES[2]
-    nxc = comp.shape[2] // ns
+    sigma = sqrt(t / t_peak) (:func:`_compression_series`), and :func:`_early_series` the
+    impulse Pi; each ball's series go into a column of the vector pass
+    (:func:`_early_newton`), which solves Pi(sigma) = target for all of them side by side.
+    ``scratch``: the arrays of :func:`early_scratch`."""
+    work, ab, tx, soa, res = scratch
+    n_pieces = comp.shape[0]
     width = x_max / n_pieces
     for k in range(n_sel):
         e = early[sel[k]]
         piece = int(e[E_PIECE])
-        gravity_rows5(comp[piece], e[E_GAMMA], gamma_max, 0, comp.shape[2], work)
-        x_values(work, nxc, 0, ns, 2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0,
-                 tx, ab[k, ns + 2:])
-        e[E_SCALE] = _impulse_series(ab[k], ns, e[E_PPK], work)
-        e[E_SIGMA] = _first_guess(ab[k], ns, e[E_TARGET], e[E_SCALE])
-        e[E_LO], e[E_HI], e[E_ACTIVE] = 0.0, 1.0, 1.0
-    for _ in range(60):
-        n_active = 0
-        for k in range(n_sel):
-            e = early[sel[k]]
-            if e[E_ACTIVE] == 0.0:
-                continue
-            n_active += 1
-            sigma = e[E_SIGMA]
-            pi, phi = _impulse_force(ab[k], ns, 2.0 * sigma - 1.0, tx)
-            f = pi - e[E_TARGET]
-            if f > 0.0:
-                e[E_HI] = sigma
-            else:
-                e[E_LO] = sigma
-            slope = phi * 4.0 * sigma * e[E_SCALE]
-            step = f / slope if slope > 0.0 else math.inf
-            if abs(step) <= 3e-6:  # converged: quadratic, so the error after it is ~1e-11
-                e[E_SIGMA] = sigma - step
-                e[E_ACTIVE] = 0.0
-                continue
-            new = sigma - step
-            if not (e[E_LO] <= new <= e[E_HI]):  # a step out of the bracket: bisect instead
-                new = 0.5 * (e[E_LO] + e[E_HI])
-            if e[E_HI] - e[E_LO] <= 1e-12:
-                e[E_ACTIVE] = 0.0
-                continue
-            e[E_SIGMA] = new
-        if n_active == 0:
-            break
-    for k in range(n_sel):  # the force at the root (E_SIGMA now holds it)
-        e = early[sel[k]]
-        e[E_SIGMA] = _impulse_force(ab[k], ns, 2.0 * e[E_SIGMA] - 1.0, tx)[1]
+        _compression_series(comp[piece], e[E_GAMMA], gamma_max,
+                            2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0, work, ab)
+        for i in range(NS):
+            soa[(R_PHI + i) * ROW + k] = ab[i]
+        soa[R_TARGET * ROW + k], soa[R_PPK * ROW + k] = e[E_TARGET], e[E_PPK]
+    early_roots(soa, n_sel, res, ab, tx)
+    for k in range(n_sel):
+        early[sel[k], E_SIGMA] = res[R_FORCE * ROW + k]
+
+
+@njit(cache=True, inline="always")
+def early_roots(soa, n, res, ab, tx):
+    """The force at Pi(sigma) = target of balls [0, n) of ``soa`` (their force's series,
+    target and impulse at the force peak) into ``res[R_FORCE]``: the vector passes
+    (:func:`_early_series`, :func:`_early_start`, :func:`_early_newton`), then, one at a
+    time, the balls they did not settle (:func:`_early_search`; ``ab`` and ``tx``: its
+    scratch)."""
+    _early_series(soa, n)
+    _early_start(soa, n, res)
+    _early_newton(soa, n, res)
+    for k in range(n):
+        if res[R_OK * ROW + k] == 0.0:  # rare: searched again, one ball at a time
+            for i in range(R_TARGET):
+                ab[i] = soa[i * ROW + k]
+            res[R_FORCE * ROW + k] = _early_search(ab, soa[R_TARGET * ROW + k],
+                                                     soa[R_SCALE * ROW + k], tx)
+
+
+@njit(cache=True)
+def early_scratch(n_compression):
+    """Scratch of :func:`_early_forces` (one set per task): the contraction's work row (a
+    compression piece's n_damping * NS values), one ball's series, a Chebyshev basis, the
+    vector pass's rows and results."""
+    return (np.empty(n_compression), np.empty(2 * NS + 2), np.empty(NS + 2),
+            np.empty(N_ROWS_EARLY * ROW), np.empty(3 * ROW))
 
 
 @njit(cache=True, error_model="numpy")
@@ -770,10 +987,9 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
     "numpy": a division by zero would give inf or NaN rather than raise, which no input in
     bounds reaches; without it every division carries a test that keeps the loops scalar.)"""
     rows = np.empty(N_TABLE * NX)
-    tx = np.empty(max(NX, COMPRESSION_NODES[2] + 2))  # also the compression series' basis
+    tx = np.empty(NX)
     vals = np.empty(N_TABLE)
-    work = np.empty(comp.shape[2])
-    ab = np.empty((BLOCK, 2 * COMPRESSION_NODES[2] + 2))
+    scratch = early_scratch(comp.shape[2])
     early = np.empty((BLOCK, N_EARLY))  # one row per ball: its fields side by side
     sel = np.empty(BLOCK, dtype=np.int64)
     counts = np.empty(comp.shape[0] + 1, dtype=np.int64)
@@ -811,8 +1027,7 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
             flags[0, i] = out[O_DMAX, i] <= limit
             flags[1, i] = True
         _block_speed_angle(out, block, n_block)
-        _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, tx, work, ab,
-                        out)
+        _early_friction(comp, x_max, gamma_max, kv, early, n_early, sel, counts, scratch, out)
     return n_invalid, n_fallback
 
 

@@ -10,7 +10,10 @@ AVX2 code (``bounce_range`` runs them so, :mod:`._fast`), while the same functio
 one element gives the same bits. Every kernel of the model uses them, so the samplers' and
 the full results' numbers stay identical. They are compiled once each and left to LLVM to
 inline where they are used: numba's own inlining of them into every kernel tripled the
-compile time for no speed.
+compile time for no speed. Each declares ``error_model="numpy"``: a numba function without
+one is compiled with its first caller's, and with Python's (a test for a zero divisor before
+every division, which no argument reaches here) the loops that call it stay scalar, in every
+kernel compiled after it in the process.
 
 Accuracy (tests/test_model_vmath.py, against NumPy's extended precision over 1e-307..1e308,
 the subnormals and the special values): cube and fifth roots within 1 unit in the last place,
@@ -91,7 +94,7 @@ _bits: Any = intrinsic(_bits_typer)
 _float: Any = intrinsic(_float_typer)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _start(t, order, bias):
     """About t ** (1 / order) for t > 0 (normal): the high word of t's bits divided by
     ``order`` plus ``bias`` as the high word of the result (integer <-> float conversions
@@ -101,7 +104,7 @@ def _start(t, order, bias):
     return _float((_bits(yh + _TWO52) & _LOW32) << 32)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _halley3(y, t):
     """One Halley step towards t ** (1/3) (y > 0), y (y^3 + 2t) / (2y^3 + t) written as a
     correction, whose rounding is relative to the correction, not to y."""
@@ -109,7 +112,7 @@ def _halley3(y, t):
     return y - y * (y3 - t) / (2.0 * y3 + t)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _halley5(z, t):
     """One Halley step towards t ** (1/5) (z > 0), z (4z^5 + 6t) / (6z^5 + 4t) written as a
     correction."""
@@ -118,7 +121,7 @@ def _halley5(z, t):
     return z - z * (z5 - t) / (3.0 * z5 + 2.0 * t)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def cbrt(a):
     """The cube root of ``a`` (any sign; 0, +-inf and NaN as given)."""
     t = abs(a)
@@ -132,7 +135,7 @@ def cbrt(a):
     return math.copysign(y, a) if normal else a
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def root5(a):
     """The fifth root of ``a`` >= 0 (0, inf and NaN as given; NaN for a < 0)."""
     normal = (a > 0.0) & (a < math.inf)
@@ -146,7 +149,7 @@ def root5(a):
     return z if a >= 0.0 else math.nan
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def atan2(y, x):
     """The angle of (x, y) in (-pi, pi], as ``math.atan2`` (signed zeros and infinities
     aside: +-0 and inf arguments give the C library's values up to the sign of zero)."""
@@ -179,7 +182,7 @@ _C1, _C2, _C3, _C4, _C5, _C6 = (4.16666666666666019037e-02, -1.38888888888741095
 _DEG = math.pi / 180.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sincos_deg(angle):
     """(sin, cos) of ``angle`` in degrees. The angle is reduced exactly in degrees, to
     d = angle - 90 q in [-45, 45] (exact: Sterbenz's lemma), so that no multiple of pi is
