@@ -98,7 +98,7 @@ def table() -> str:
             cache[path] = json.loads(path.read_text()) if path.is_file() else None
         return cache[path]
 
-    lines = ["| what | development machine, 2 cores | idle server, 2 cores (earlier code) | target "
+    lines = ["| what | development machine, 2 cores | idle server, 2 cores | target "
              "| against the baseline of the same run (development; idle) | file |",
              "|---|---|---|---|---|---|"]
     for what, name, key, show, target, ratio_key in ROWS:

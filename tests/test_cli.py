@@ -309,6 +309,29 @@ def test_version(capsys):
     assert info.value.code == 0 and capsys.readouterr().out == f"bouncebayes {bb.__version__}\n"
 
 
+def test_version_of_a_source_tree_that_was_never_installed(tmp_path):
+    """Run from ``PYTHONPATH=src`` with no package metadata: the version says so, rather than
+    every command failing on the missing metadata (met on a machine without the install)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    src = Path(bb.__file__).resolve().parent.parent
+    code = ("import importlib.metadata as m, sys\n"
+            "real = m.version\n"
+            "def version(name):\n"
+            "    if name == 'bouncebayes':\n"
+            "        raise m.PackageNotFoundError(name)\n"
+            "    return real(name)\n"
+            "m.version = version\n"
+            f"sys.path.insert(0, {str(src)!r})\n"
+            "import bouncebayes\n"
+            "print(bouncebayes.__version__)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=tmp_path, check=True)
+    assert out.stdout == "0+unknown.source-tree\n", out.stderr
+
+
 # --------------------------------------------------------------------------- outputs
 
 def test_outputs_carry_the_command_line_that_made_them(tmp_path, capsys):

@@ -1,5 +1,13 @@
-"""The installed package version (one place, importable without the package namespace)."""
+"""The installed package version (one place, importable without the package namespace).
 
-from importlib.metadata import version
+Run from a source tree that was never installed (``PYTHONPATH=src``), there is no package
+metadata: the version is then the source tree's, marked as such, so that provenance records
+say where the numbers came from rather than the run failing.
+"""
 
-__version__ = version("bouncebayes")
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("bouncebayes")
+except PackageNotFoundError:  # a source tree on the path, not installed
+    __version__ = "0+unknown.source-tree"
