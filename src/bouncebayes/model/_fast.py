@@ -599,15 +599,16 @@ R_PI, R_PHI, R_TARGET, R_SCALE, R_PPK = 0, NS + 2, 2 * NS + 2, 2 * NS + 3, 2 * N
 N_ROWS_EARLY = 2 * NS + 5
 R_FORCE, R_ROOT, R_OK = range(3)
 # Their rows lie ROW values apart, a stride that is not a multiple of 4 KiB: at BLOCK's 2 KiB,
-# the 42 rows of a ball's column shared two sets of the first-level cache, whose 16 lines the
+# the 45 rows of a ball's column shared two sets of the first-level cache, whose 16 lines the
 # passes then evicted again and again (filling a column took 3x the time, measured).
 ROW = BLOCK + 8
-if NS != 20:  # pragma: no cover - a guard for whoever changes COMPRESSION_NODES
-    raise ImportError("_series_pair and _early_series are written out for 20 terms in sigma")
+if COMPRESSION_NODES != (6, 5, 20):  # pragma: no cover - a guard for whoever changes them
+    raise ImportError("_compression_series, _series_pair and _early_series are written out "
+                      "for 6 x 5 x 20 terms")
 # The vector pass (:func:`_early_newton`) takes four Newton steps from the two-term model's
 # start (MODEL_STEPS steps on the model; within ~5 % of the root): enough to reach the root to
-# ~1e-11 for ~99 % of the balls of the prior box (the last step at most NEWTON_TOL, then
-# quadratic); a ball whose last step is larger, or left the bracket, is searched again one at
+# ~1e-11 for ~99 % of balls at random points of the table (1.1 % of 10,240 were not: the last
+# step at most NEWTON_TOL, then quadratic); a ball whose last step is larger, or left the bracket, is searched again one at
 # a time (:func:`_early_search`).
 MODEL_STEPS = 4
 NEWTON_TOL = 3e-6  # a last step this small leaves ~1e-11 (quadratic convergence)
