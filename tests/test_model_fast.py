@@ -141,9 +141,10 @@ def test_series_pair_is_numpys_chebval():
 def test_early_roots_agree_with_brentq_and_settle_what_the_vector_pass_leaves():
     """The force when the impulse reaches a target, for the compression table's own series at
     random points and for a force exp(12 (sigma - 1)), unlike any compression (the two-term
-    model's start is then ~8 % off, and Newton needs more than the vector pass's four steps:
-    the ball is searched again one at a time). Expected: SciPy's brentq on NumPy's chebval of the impulse
-    series (independent of the passes), then chebval of the force at the root."""
+    model's start is then several per cent off, and Newton needs more than the vector pass's
+    four steps: the ball is searched again one at a time). Expected: SciPy's brentq on NumPy's
+    chebval of the impulse series (independent of the passes), then chebval of the force at
+    the root."""
     from scipy.optimize import brentq
 
     ns, block = _fast.NS, _fast.ROW

@@ -112,9 +112,10 @@ def _host_has_avx2() -> bool:
                                     "_early_start", "_early_newton"])
 def test_block_passes_compile_to_vector_code(kernel):
     """The reason for _vmath and for the passes: the block passes of the closed-form kernel
-    divide four elements at a time (ymm registers). Compiled afresh (no cache, whose code cannot be inspected) from the
-    kernel's own source, after the functions of _vmath were compiled for a caller with
-    Python's error model (which, were it inherited, would keep the loops scalar)."""
+    divide four elements at a time (ymm registers). Compiled afresh (no cache, whose code
+    cannot be inspected) from the kernel's own source, after the functions of _vmath were
+    compiled for a caller with Python's error model (which, were it inherited, would keep the
+    loops scalar)."""
     njit(lambda a: _vmath.root5(a) + _vmath.cbrt(a) + _vmath.atan2(a, a)
          + _vmath.sincos_deg(a)[0])(2.0)
     fn = getattr(_fast, kernel)

@@ -70,8 +70,9 @@ NG = TABLE_NODES[1]  # the kernels are written for eight gravity terms
 # The kernels read the main table in MAIN_PIECES equal pieces of the damping axis, each a
 # Chebyshev series of NX terms in the piece's own variable (gravity untouched): the 24-term
 # series re-expanded exactly, piece by piece (:func:`_main_pieces`), which reproduces it to
-# ~5e-12, 7e-11 for Tsuji's law (tests/test_model_fast.py) for a third of the multiply-adds of a bounce (8 x 8 terms a
-# quantity instead of 24 x 8). Six gravity terms in the pieces would leave ~1e-7: gravity stays.
+# ~5e-12, 7e-11 for Tsuji's law (tests/test_model_fast.py), for a third of the multiply-adds
+# of a bounce (8 x 8 terms a quantity instead of 24 x 8). Six gravity terms in the pieces would
+# leave ~1e-7: gravity stays.
 MAIN_PIECES = 32
 NX = 8
 # Samplers contract the gravity axis once per condition and piece (``prepare_conditions``:
@@ -607,9 +608,9 @@ if COMPRESSION_NODES != (6, 5, 20):  # pragma: no cover - a guard for whoever ch
                       "for 6 x 5 x 20 terms")
 # The vector pass (:func:`_early_newton`) takes four Newton steps from the two-term model's
 # start (MODEL_STEPS steps on the model; within ~5 % of the root): enough to reach the root to
-# ~1e-11 for ~99 % of balls at random points of the table (1.1 % of 10,240 were not: the last
-# step at most NEWTON_TOL, then quadratic); a ball whose last step is larger, or left the bracket, is searched again one at
-# a time (:func:`_early_search`).
+# ~1e-11 (the last step at most NEWTON_TOL, then quadratic) for ~99 % of balls at random points
+# of the table (1.1 % of 10,240 were not); a ball whose last step is larger, or left the
+# bracket, is searched again one at a time (:func:`_early_search`).
 MODEL_STEPS = 4
 NEWTON_TOL = 3e-6  # a last step this small leaves ~1e-11 (quadratic convergence)
 
@@ -708,7 +709,8 @@ def _model_guess(soa, k, target, scale, ppk):
     for _ in range(MODEL_STEPS):
         s2 = sigma * sigma
         s4 = s2 * s2
-        sigma -= (alpha * s2 + beta * s4 * sigma - target) / (2.0 * alpha * sigma + 5.0 * beta * s4)
+        f = alpha * s2 + beta * s4 * sigma - target
+        sigma -= f / (2.0 * alpha * sigma + 5.0 * beta * s4)
     sigma = min(max(sigma, 0.0), 1.0)
     return sigma if beta > 0.0 else start
 
@@ -851,9 +853,9 @@ def _early_start(soa, n, res):
 def _early_newton(soa, n, res):
     """The force when the impulse reaches the slip's need, for balls [0, n) of ``soa`` (rows
     ``R_*``), into ``res[R_FORCE]``: from the start in ``res[R_ROOT]`` (:func:`_early_start`)
-    four Newton steps written out, with no branch but selects, so that the
-    loop over balls compiles to 4-wide vector code (one search after another was a long chain
-    of dependent operations and unpredictable exits). ``res[R_OK]`` is 0 where the last step
+    four Newton steps written out, with no branch but selects, so that the loop over balls
+    compiles to 4-wide vector code (one search after another was a long chain of dependent
+    operations and unpredictable exits). ``res[R_OK]`` is 0 where the last step
     was not below NEWTON_TOL or left the bracket (searched again by :func:`_early_search`)."""
     for k in range(n):
         target, scale = soa[R_TARGET * ROW + k], soa[R_SCALE * ROW + k]
