@@ -51,12 +51,9 @@ def _drop_stale_kernel_caches() -> None:
     try:
         # no stamp yet: the caches are taken as made from these sources (a fresh install's
         # `bouncebayes warmup`), so that the first session does not compile everything again
-        if not stamp.exists() or stamp.read_text() == digest.hexdigest():
-            stamp.parent.mkdir(exist_ok=True)
-            stamp.write_text(digest.hexdigest())
-            return
-        for cached in [*src.rglob("*.nbi"), *src.rglob("*.nbc")]:
-            cached.unlink(missing_ok=True)
+        if stamp.exists() and stamp.read_text() != digest.hexdigest():
+            for cached in [*src.rglob("*.nbi"), *src.rglob("*.nbc")]:
+                cached.unlink(missing_ok=True)
         stamp.parent.mkdir(exist_ok=True)
         stamp.write_text(digest.hexdigest())
     except OSError:  # a read-only checkout: numba then keeps no cache there either

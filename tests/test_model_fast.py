@@ -163,7 +163,7 @@ def test_early_roots_agree_with_brentq_and_settle_what_the_vector_pass_leaves():
     targets = list(rng.uniform(0.0, 1.0, 40) ** 2 * 0.7) + [0.35]
     soa = _soa_columns(phis, targets)
     res = np.zeros(3 * block)
-    _fast.early_roots(soa, len(phis), res, np.empty(2 * ns + 2), np.empty(ns + 2))
+    _fast.early_roots(soa, len(phis), res)
     ok = res[_fast.R_OK * block:_fast.R_OK * block + len(phis)]
     assert ok[:40].mean() >= 0.9 and ok[40] == 0.0  # the steep force needed the second search
     rows = soa.reshape(_fast.N_ROWS_EARLY, block)

@@ -212,8 +212,6 @@ def valid(values, bounds, i):
     return True
 
 
-
-
 @njit(cache=True)
 def all_valid(values, bounds):
     """Whether every element of every input lies in its bounds (one pass per input array: the

@@ -457,33 +457,19 @@ def tangential_one(r, m, inertia, mu, gx, u0, w0, tc, impulse):
 
 
 @njit(cache=True, inline="always")
-def _impulse_force(ab, ns, u, tx):
-    """(Pi, Phi) of the compression series at u = 2 sigma - 1 (one basis for both; ``ab``:
-    the ns + 2 coefficients of Pi, then the ns of Phi, ns even)."""
-    cheb_basis(u, tx, ns + 2)
-    a0 = a1 = b0 = b1 = 0.0
-    for i in range(0, ns, 2):
-        a0 += ab[i] * tx[i]
-        a1 += ab[i + 1] * tx[i + 1]
-        b0 += ab[ns + 2 + i] * tx[i]
-        b1 += ab[ns + 3 + i] * tx[i + 1]
-    a0 += ab[ns] * tx[ns]
-    a1 += ab[ns + 1] * tx[ns + 1]
-    return a0 + a1, b0 + b1
-
-
-@njit(cache=True, inline="always")
-def _bounce_one(values, ball, i, gx, u0, vn, scales, j, main, x_max, gamma_max, kv, rows, tx,
-                vals, out, early, n_early):
-    """Closed-form bounce of element ``i`` (tangential gravity gx, incident velocities u0, vn;
-    its normal scales in column ``j`` of ``scales``, :func:`_block_scales`) with every output
-    but the rebound speed and angle (:func:`_block_speed_angle`) and the peak friction of a
-    ball whose slip stops before the force peak: such an element is appended to ``early`` (its
-    index and what :func:`_early_friction` needs) and its peak friction left for that pass.
+def _bounce_one(values, ball, i, scales, j, main, x_max, gamma_max, kv, rows, tx, vals, out,
+                early, n_early):
+    """Closed-form bounce of element ``i`` (its gravity, incident velocities and normal
+    scales in column ``j`` of ``scales``: :func:`_block_inputs`, :func:`_block_scales`) with
+    every output but the rebound speed and angle (:func:`_block_speed_angle`) and the peak
+    friction of a ball whose slip stops before the force peak: such an element is appended to
+    ``early`` (its index and what :func:`_early_friction` needs) and its peak friction left for
+    that pass.
     Returns (fallback reason (> 0), 0 when it slides, -1 when it rolls; the new length of
     ``early``)."""
     r, m, inertia = ball[B_R], ball[B_M], ball[B_I]
     mu, w0 = at(values[I_MU], i), at(values[I_SPIN], i)
+    gx, u0, vn = scales[S_GX, j], scales[S_U0, j], scales[S_VN, j]
     d_star, damping, x = scales[S_DSTAR, j], scales[S_DAMPING, j], scales[S_X, j]
     t_star, gamma = time_and_gravity_scales(d_star, vn, scales[S_GY, j])
     if not (x <= x_max and gamma <= gamma_max):
@@ -869,30 +855,22 @@ def _early_newton(soa, n, res):
 
 
 @njit(cache=True, inline="always")
-def _early_search(ab, target, scale, tx):
-    """The force at Pi(sigma) = target for one ball (``ab``: its impulse's coefficients, then
-    its force's), by safeguarded Newton steps from sigma = 1 until the step is below
-    NEWTON_TOL (Pi is increasing and convex in sigma and the root lies below 1, so that the
-    iterates descend onto it; a bracket catches any step that would leave it): the ball that
+def _early_search(soa, k, target, scale):
+    """The force at Pi(sigma) = target for ball ``k`` of ``soa``, by safeguarded Newton steps
+    (:func:`_newton_step`) from sigma = 1 until the step is below NEWTON_TOL (Pi is
+    increasing and convex in sigma and the root lies below 1, so that the iterates descend
+    onto it; a bracket catches any step that would leave it): the ball that
     :func:`_early_newton` did not settle."""
     sigma, lo, hi = 1.0, 0.0, 1.0
     for _ in range(200):
-        pi, phi = _impulse_force(ab, NS, 2.0 * sigma - 1.0, tx)
-        f = pi - target
-        if f > 0.0:
-            hi = sigma
-        else:
-            lo = sigma
-        slope = phi * 4.0 * sigma * scale
-        step = f / slope if slope > 0.0 else math.inf
+        new, lo, hi, step, _inside = _newton_step(soa, k, sigma, lo, hi, target, scale)
         if abs(step) <= NEWTON_TOL:
             sigma -= step
             break
-        new = sigma - step
-        sigma = new if lo <= new <= hi else 0.5 * (lo + hi)
+        sigma = new
         if hi - lo <= 1e-12:
             break
-    return _impulse_force(ab, NS, 2.0 * sigma - 1.0, tx)[1]
+    return _series_pair(soa, k, 2.0 * sigma - 1.0)[1]
 
 
 @njit(cache=True, inline="always")
@@ -932,47 +910,44 @@ def _early_forces(comp, sel, n_sel, early, x_max, gamma_max, scratch):
     impulse Pi; each ball's series go into a column of the vector pass
     (:func:`_early_newton`), which solves Pi(sigma) = target for all of them side by side.
     ``scratch``: the arrays of :func:`early_scratch`."""
-    work, ab, tx, soa, res = scratch
+    work, phi, soa, res = scratch
     n_pieces = comp.shape[0]
     width = x_max / n_pieces
     for k in range(n_sel):
         e = early[sel[k]]
         piece = int(e[E_PIECE])
         _compression_series(comp[piece], e[E_GAMMA], gamma_max,
-                            2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0, work, ab)
+                            2.0 * (e[E_X] - piece * width) * n_pieces / x_max - 1.0, work, phi)
         for i in range(NS):
-            soa[(R_PHI + i) * ROW + k] = ab[i]
+            soa[(R_PHI + i) * ROW + k] = phi[i]
         soa[R_TARGET * ROW + k], soa[R_PPK * ROW + k] = e[E_TARGET], e[E_PPK]
-    early_roots(soa, n_sel, res, ab, tx)
+    early_roots(soa, n_sel, res)
     for k in range(n_sel):
         early[sel[k], E_SIGMA] = res[R_FORCE * ROW + k]
 
 
 @njit(cache=True, inline="always")
-def early_roots(soa, n, res, ab, tx):
+def early_roots(soa, n, res):
     """The force at Pi(sigma) = target of balls [0, n) of ``soa`` (their force's series,
     target and impulse at the force peak) into ``res[R_FORCE]``: the vector passes
     (:func:`_early_series`, :func:`_early_start`, :func:`_early_newton`), then, one at a
-    time, the balls they did not settle (:func:`_early_search`; ``ab`` and ``tx``: its
-    scratch)."""
+    time, the balls they did not settle (:func:`_early_search`)."""
     _early_series(soa, n)
     _early_start(soa, n, res)
     _early_newton(soa, n, res)
     for k in range(n):
         if res[R_OK * ROW + k] == 0.0:  # rare: searched again, one ball at a time
-            for i in range(R_TARGET):
-                ab[i] = soa[i * ROW + k]
-            res[R_FORCE * ROW + k] = _early_search(ab, soa[R_TARGET * ROW + k],
-                                                     soa[R_SCALE * ROW + k], tx)
+            res[R_FORCE * ROW + k] = _early_search(soa, k, soa[R_TARGET * ROW + k],
+                                                   soa[R_SCALE * ROW + k])
 
 
 @njit(cache=True)
 def early_scratch(n_compression):
     """Scratch of :func:`_early_forces` (one set per task): the contraction's work row (a
-    compression piece's n_damping * NS values), one ball's series, a Chebyshev basis, the
-    vector pass's rows and results."""
-    return (np.empty(n_compression), np.empty(2 * NS + 2), np.empty(NS + 2),
-            np.empty(N_ROWS_EARLY * ROW), np.empty(3 * ROW))
+    compression piece's n_damping * NS values), one ball's force series, the vector pass's
+    rows and results."""
+    return (np.empty(n_compression), np.empty(NS), np.empty(N_ROWS_EARLY * ROW),
+            np.empty(3 * ROW))
 
 
 @njit(cache=True, error_model="numpy")
@@ -1016,9 +991,9 @@ def bounce_range(values, ball, bounds, check_each, closed_form, main, comp, x_ma
                 n_invalid += 1
                 continue
             if closed_form:
-                reason, n_early = _bounce_one(
-                    values, ball, i, scales[S_GX, j], scales[S_U0, j], scales[S_VN, j], scales,
-                    j, main, x_max, gamma_max, kv, rows, tx, vals, out, early, n_early)
+                reason, n_early = _bounce_one(values, ball, i, scales, j, main, x_max,
+                                              gamma_max, kv, rows, tx, vals, out, early,
+                                              n_early)
             if reason > 0:
                 fill_failed(out, i, status, K.ST_OK, rolling, flags)
                 n_fallback += 1
