@@ -103,6 +103,7 @@ def test_kinematics_on_an_empty_folder_is_an_error(tmp_path, capsys):
 
 # --------------------------------------------------------------------------- start-up and API
 
+import os  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -330,6 +331,44 @@ def test_version_of_a_source_tree_that_was_never_installed(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          cwd=tmp_path, check=True)
     assert out.stdout == "0+unknown.source-tree\n", out.stderr
+
+
+def test_the_program_ends_without_teardown_but_does_what_teardown_does(tmp_path):
+    """The program (``main()`` reading ``sys.argv``) ends the process itself, skipping the
+    interpreter's teardown: its output still arrives whole through a pipe, its exit handlers
+    still run (temporary folders' removal is one), its status is the command's, and nothing
+    after ``main()`` runs. Expected values: the simulate command's own output and exit
+    statuses (0; 2 for a bad option), as called in-process."""
+    def program(*argv: str) -> subprocess.CompletedProcess:
+        marker = tmp_path / f"atexit-{len(argv)}"
+        code = ("import atexit, sys\n"
+                "from bouncebayes.cli import main\n"
+                f"atexit.register(lambda: open({str(marker)!r}, 'w').write('ran'))\n"
+                f"sys.argv = ['bouncebayes', *{list(argv)!r}]\n"
+                "main()\n"
+                "print('after main')\n")
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             timeout=300, env=os.environ | {"PYTHONPATH": SRC})
+        assert marker.read_text() == "ran"
+        assert "after main" not in out.stdout
+        return out
+
+    good = program("simulate", "--mu", "0.2", "--json")
+    assert good.returncode == 0, good.stderr
+    assert good.stdout == _in_process(["simulate", "--mu", "0.2", "--json"])
+    bad = program("simulate", "--mu", "-1", "--angle", "60")
+    assert bad.returncode == 2
+    assert bad.stderr.strip().startswith("bouncebayes simulate: error: `--mu`")
+
+
+def _in_process(argv: list[str]) -> str:
+    import contextlib
+    import io
+
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        assert main(argv) == 0
+    return buffer.getvalue()
 
 
 # --------------------------------------------------------------------------- outputs
