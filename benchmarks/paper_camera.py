@@ -10,8 +10,13 @@ Per clip: the RMS error (px, both coordinates, ``sqrt(mean(dx^2 + dy^2))``) of t
 centres against the renderer's truth over the trusted frames with the ball wholly in view
 (``rms_px``); how many of them the small-ball fit refined (``refined``, ``tracking/_refine.py``;
 the others are coverage centroids moved by the edge fits' offset, ``offset_px``); the mean
-error (bias); the ball's radius from the edge model. Summary: mean and largest RMS (the
-target: 0.15 px, docs/tracking.md), and the load average during the run (the machine is shared).
+error (bias); the ball's radius from the edge model. Then, as `bouncebayes track` and
+`kinematics` would (scale from the ball's diameter and its edge radius, the renderer's surface
+line): the scale's error and stated relative SD, and the z-scores of the rebound speed (its
+standard error and the scale's SD in quadrature) and angle against the renderer's truth,
+whether the kinematics' gates passed the track, and the tracking record's warning. Summary:
+mean and largest RMS (the target: 0.15 px, docs/tracking.md), the largest |z|, and the load
+average during the run (the machine is shared).
 
 ``python benchmarks/paper_camera.py [--cache DIR]`` writes ``benchmarks/results/paper_camera.json``
 (``--cache``: keep the decoded frames there, so that a rerun tracks the same frames without
@@ -34,7 +39,18 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from bouncebayes.tracking import read_frames, track_ball  # noqa: E402
+from bouncebayes.kinematics import (  # noqa: E402
+    TrajectoryError,
+    fit_kinematics,
+    read_trajectory,
+)
+from bouncebayes.tracking import (  # noqa: E402
+    Surface,
+    read_frames,
+    track_ball,
+    track_video,
+    write_track_files,
+)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from render_pbr import Shot, Throw, render, write  # noqa: E402
@@ -64,6 +80,40 @@ def clip_frames(s: Shot, codec: str, name: str, tmp: Path, cache: Path | None) -
         cache.mkdir(parents=True, exist_ok=True)
         np.save(cache / f"{name}.npy", frames)
     return frames
+
+
+def kinematics(frames: np.ndarray, s: Shot, tmp: Path) -> dict:
+    """Track the frames as a video of 1000 fps (a lossless image sequence) with the ball's
+    diameter for the scale and the renderer's surface line, and fit the kinematics."""
+    import cv2
+
+    folder = tmp / "frames"
+    folder.mkdir(exist_ok=True)
+    for old in folder.glob("*.png"):
+        old.unlink()
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(folder / f"{i:04d}.png"), f)
+    x1, y1, x2, y2 = s.surface_points()
+    video = track_video(folder, fps=1000.0, ball_diameter=s.diameter_m,
+                        surface=Surface.from_points((x1, y1), (x2, y2)))
+    files = write_track_files(video, tmp / "out")
+    record = json.loads(files["record"].read_text(encoding="utf-8"))
+    cal = video.calibration
+    row = {"scale_error_pct": round(100 * (cal.metres_per_px / s.metres_per_px - 1.0), 2),
+           "scale_rel_sd_pct": round(100 * cal.relative_sd, 2),
+           "fitted_blur_px": round(video.track.radius_fit.sigma, 3),
+           "warning": record["ball"]["warning"]}
+    try:
+        fit = fit_kinematics(read_trajectory(files["trajectory"]))
+    except TrajectoryError as exc:  # a gate rejected the track: said, and no z-scores
+        return row | {"accepted": False, "rejected_because": str(exc),
+                      "rebound_speed_z": None, "rebound_angle_z": None}
+    speed_sd = float(np.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd))
+    return row | {"accepted": True,
+                  "rebound_speed_z": round((fit.rebound_speed - s.throw.rebound_speed())
+                                           / speed_sd, 2),
+                  "rebound_angle_z": round((fit.rebound_angle - s.throw.rebound_angle())
+                                           / fit.rebound_angle_se, 2)}
 
 
 def main(argv=None) -> dict:
@@ -96,7 +146,8 @@ def main(argv=None) -> dict:
                                      "rms_px": round(rms(err), 4),
                                      "offset_px": [round(float(v), 4) for v in off],
                                      "bias_px": [round(float(v), 4) for v in err.mean(axis=0)],
-                                     "radius_px": round(tr.ball_radius, 3)})
+                                     "radius_px": round(tr.ball_radius, 3),
+                                     **kinematics(frames, s, Path(tmp))})
                         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     cur = np.array([r["rms_px"] for r in rows])
     load = subprocess.run(["cat", "/proc/loadavg"], capture_output=True, text=True).stdout.split()
@@ -104,6 +155,11 @@ def main(argv=None) -> dict:
               "mean_rms_px": round(float(cur.mean()), 4), "max_rms_px": round(float(cur.max()), 4),
               "min_rms_px": round(float(cur.min()), 4),
               "within_target": int((cur <= TARGET_PX).sum()),
+              "max_abs_rebound_speed_z": max(abs(r["rebound_speed_z"]) for r in rows
+                                             if r["accepted"]),
+              "max_abs_rebound_angle_z": max(abs(r["rebound_angle_z"]) for r in rows
+                                             if r["accepted"]),
+              "accepted": sum(r["accepted"] for r in rows),
               "load_average_1_5_15": [float(v) for v in load[:3]],
               "wall_s": round(time.time() - t0, 1), "rows": rows}
     RESULTS.write_text(json.dumps(result, indent=1) + "\n")

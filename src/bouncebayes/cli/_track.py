@@ -203,9 +203,9 @@ def settings_record(args: argparse.Namespace) -> dict:
 
 
 def summary_line(result, files: dict[str, Path]) -> str:
-    """What was found in one video, and where it went (and a warning where the ball's radius,
-    so the scale, is unreliable)."""
-    from ..tracking import EDGE_FIT, blur_warning
+    """What was found in one video, and where it went (and a warning where the scale comes
+    from the ball's radius and that is unreliable or uncertain)."""
+    from ..tracking import EDGE_FIT, radius_warning
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, found = len(tr.found), int(tr.found.sum())
@@ -218,4 +218,5 @@ def summary_line(result, files: dict[str, Path]) -> str:
             f"{cal.metres_per_px * 1e3:.4g} mm/px{unc} ({cal.source}), surface at "
             f"{srf.angle:.2f}{angle} deg ({srf.source}), {src.fps:g} fps ({src.fps_source})\n"
             f"  -> {files['trajectory']}  {files['overlay']}  {files['record']}"
-            + (f"\n  warning: {warning}" if (warning := blur_warning(tr)) else ""))
+            + (f"\n  warning: {warning}" if cal.source != "reference"
+               and (warning := radius_warning(tr)) else ""))

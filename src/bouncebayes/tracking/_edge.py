@@ -61,18 +61,29 @@ MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic
 # 0.75-1.3 px at 0.18-0.26.
 SYSTEMATIC_PX = 0.06
 BLUR_TERM = 600.0
-# ... plus SMALL_BALL_PX2 / r^2 (px): a ball a few pixels across leaves the fit only a few dozen
-# rim pixels, and MPEG-4 blocks or a glossy highlight move it by up to 0.5 px at r = 5 px (0.08
-# px at r = 5, 0.02 px at r = 10; set from the same sweep after the analytic Jacobian, where two
-# 5 px scenarios had |z| 3.1 and 4.1 without it).
-SMALL_BALL_PX2 = 2.0
+# ... plus SMALL_BALL_PX5 / r^4 (px): a ball a few pixels across leaves the fit a few dozen rim
+# pixels, where shading, blur and exposure trade against the radius (docs/tracking.md §3):
+# on the paper's camera (r = 5 px, benchmarks/paper_camera.py) the radius came out -5 to +18 %
+# (frontal light, blur 0.6 px: +13 to +18 %, with a fitted blur of 0.16-0.53 px), and MPEG-4
+# blocks or a glossy highlight move it by up to 0.5 px at r = 5 px in the sweep. Set so that
+# those radii have |z| <= 2.5 (0.60 px at r = 5, 0.23 at 6.4, 0.04 at 10, 0.007 at 15; the
+# earlier 2 px^2 / r^2, 0.08 px at r = 5, left |z| up to 6.7 there).
+SMALL_BALL_PX5 = 375.0
 UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable
+UNCERTAIN_RADIUS = 0.02  # relative SD of the radius above which a warning says to give a length
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
     ratio = 0.0 if blur_px is None else blur_px / radius_px
-    return SYSTEMATIC_PX + BLUR_TERM * ratio**4 + SMALL_BALL_PX2 / radius_px**2
+    return SYSTEMATIC_PX + BLUR_TERM * ratio**4 + SMALL_BALL_PX5 / radius_px**4
+
+
+def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None) -> float:
+    """The relative standard deviation of the edge model's radius: its scatter across frames
+    ``radius_se_px`` and the systematic error (:func:`edge_model_systematic_px`) in
+    quadrature."""
+    return math.hypot(radius_se_px, edge_model_systematic_px(radius_px, blur_px)) / radius_px
 
 
 class RadiusFit(NamedTuple):

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 from .._validate import check_scalar
-from ._edge import edge_model_systematic_px
+from ._edge import radius_relative_sd
 from ._track import Track
 
 
@@ -55,8 +55,7 @@ class Calibration:
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
-            rel = math.hypot(radius_se_px,
-                             edge_model_systematic_px(radius_px, blur_px)) / radius_px
+            rel = radius_relative_sd(radius_px, radius_se_px, blur_px)
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 

@@ -267,12 +267,14 @@ def _ball_record(tr: Track) -> dict[str, object]:
             "exposure": _optional(fit.exposure, 3) if fit is not None else None,
             "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
             "centre_sd_px": _optional(fit.centre_sd, 4) if fit is not None else None,
-            "warning": blur_warning(tr)}
+            "warning": radius_warning(tr)}
 
 
-def blur_warning(track: Track) -> str | None:
-    """A sentence where the ball is so blurred for its size that its radius is unreliable."""
-    from ._edge import UNRELIABLE_BLUR
+def radius_warning(track: Track) -> str | None:
+    """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
+    unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (a small
+    ball); None where neither."""
+    from ._edge import UNCERTAIN_RADIUS, UNRELIABLE_BLUR, radius_relative_sd
 
     fit = track.radius_fit
     if fit is None:
@@ -282,6 +284,12 @@ def blur_warning(track: Track) -> str | None:
         return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
                 "px: its radius, and the --ball-diameter scale, may be off by several percent "
                 "(the stated uncertainty allows for it); give --reference for a better scale")
+    rel = radius_relative_sd(fit.radius, fit.radius_se, fit.sigma)
+    if rel > UNCERTAIN_RADIUS:
+        return (f"the ball is {fit.radius:.3g} px in radius: too few pixels at its edge to "
+                f"tell its radius from the blur and shading better than +-{100 * rel:.2g} % "
+                "(the stated uncertainty of the --ball-diameter scale); give --reference for a "
+                "better scale")
     return None
 
 
