@@ -344,3 +344,34 @@ def test_grid_run_draws_its_joint_posterior_from_the_grid_with_a_spare_core(
                     config=bb.inference.GridConfig(draws=200, points=64), log=lambda m: None)
     assert sources == ["grid quadrature"]
     assert {"grid.npz", "posterior.nc", "summary.json"} <= {p.name for p in out.iterdir()}
+
+
+def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_path):
+    """A campaign filmed like the paper's (224 x 64 px, a ball of radius 5 px): the scale from
+    the ball's edge is uncertain by ~10 % (docs/tracking.md §3), which each tracking record
+    says (``ball.warning``) and `run` says once for all the videos, with their count."""
+    from bouncebayes.pipeline import _track_videos
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from video_helpers import Bounce, Scene, render, write_video
+
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    for i in range(2):
+        scene = Scene(width=224, height=64, radius_px=5.0, n_frames=160,
+                      surface_point=(0.0, 52.0), inclination=3.0, exposure=0.5,
+                      noise_sigma=3.0, seed=2025 + i)
+        write_video(render(scene, Bounce(speed_in=2.0, angle_in=35.0, t_contact=0.08,
+                                         x_contact=0.05)), videos / f"b{i}.avi", scene.fps)
+    experiment = load_experiment(Path(__file__).resolve().parents[1] / "examples" / "paper.toml")
+    lines: list[str] = []
+    stage = tmp_path / "stage"
+    folder = _track_videos(videos, experiment, stage, lines.append, 1000.0, False)
+    warnings = [line for line in lines if "warning" in line]
+    assert len(warnings) == 1, lines
+    assert warnings[0].startswith("  warning, 2 of 2 videos (first b0.avi): the ball is ")
+    assert "give --reference" in warnings[0]
+    for name in ("b0", "b1"):
+        record = json.loads((folder / f"{name}.track.json").read_text(encoding="utf-8"))
+        assert record["calibration"]["relative_sd"] > 0.02
+        assert "give --reference" in record["ball"]["warning"]
