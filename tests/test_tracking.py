@@ -681,6 +681,72 @@ def test_the_edge_models_jacobian_is_the_derivative_of_its_residual(q):
             assert np.median(np.abs(jac[:, col] - fd)) < 5e-5 * scale
 
 
+def _fit_frame(px, q0, lo, hi, max_nfev=200, tol=1e-12):
+    from bouncebayes.tracking._edge import RIM_ORDER, _sqrt_table
+    from bouncebayes.tracking._edge_kernel import fit_frame
+
+    zt, gt = _sqrt_table()
+    return fit_frame(np.array(q0, float), np.ones(5, bool), np.array(lo, float),
+                     np.array(hi, float), 0.05, tol, tol, max_nfev, px.u, px.v, px.dir_u,
+                     px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey, px.bg,
+                     float(zt[0]), float(zt[1] - zt[0]), gt, RIM_ORDER)
+
+
+def _model_frame(q, noise: float, seed: int = 5):
+    """One frame's pixels whose grey levels are the edge model's at ``q = (cx, cy, r, sigma,
+    exposure)`` (NumPy reference design, chosen linear coefficients), plus Gaussian noise."""
+    from bouncebayes.tracking._edge import _design_numpy
+
+    px = _edge_pixels(1)
+    px = px._replace(cx=np.full(px.u.size, q[0]), cy=np.full(px.u.size, q[1]))
+    a, step = _design_numpy(np.array(q[2:]), px)
+    beta = np.zeros(a.shape[1])
+    beta[:4] = (150.0, 6.0, -4.0, 30.0)  # ball level, a shading gradient, the limb
+    beta[-3:] = (5.0, 0.5, -0.3)  # the background's offset and gradient
+    grey = px.bg * (1.0 - step) + a @ beta + np.random.default_rng(seed).normal(0, noise, step.size)
+    return px._replace(grey=grey, weight=np.ones(step.size))
+
+
+def test_the_edge_fit_finds_the_least_squares_point_within_its_bounds():
+    from scipy.optimize import least_squares
+
+    from bouncebayes.tracking._edge import _evaluate
+
+    truth = (20.3, 19.7, 10.0, 0.7, 0.5)
+    start = (20.6, 19.4, 10.4, 0.9, 0.2)
+    lo, hi = (18.0, 17.0, 7.5, 0.05, 0.0), (23.0, 22.0, 13.0, 3.0, 1.0)
+    # noise-free: the generating parameters (zero residual) from a start 0.4 px away
+    q, res, status = _fit_frame(_model_frame(truth, 0.0), start, lo, hi)
+    assert status > 0
+    np.testing.assert_allclose(q, truth, rtol=0, atol=1e-6)
+    assert float(res @ res) < 1e-8  # grey levels^2 over 500 pixels (the ridge, the table)
+    # with noise: the same point as SciPy's least_squares (trust-region reflective, the same
+    # analytic Jacobian) run to convergence, an independent optimiser
+    px = _model_frame(truth, 3.0)
+    q, res, status = _fit_frame(px, start, lo, hi)
+    ref = least_squares(lambda x: _evaluate(x, px, np.ones(5, bool), False)[0], start,
+                        jac=lambda x: _evaluate(x, px, np.ones(5, bool), True)[1],
+                        bounds=(lo, hi), x_scale=0.05, xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    np.testing.assert_allclose(q, ref.x, rtol=0, atol=1e-6)
+    assert float(res @ res) == pytest.approx(2 * ref.cost, rel=1e-9)
+    # a bound in the way: exposure held at most 0.1 (the truth 0.5), the fit ends on it, with
+    # the other parameters where SciPy puts them under the same bound
+    hi_exposure = (*hi[:4], 0.1)
+    start = (*start[:4], 0.05)
+    q, res, status = _fit_frame(px, start, lo, hi_exposure)
+    ref = least_squares(lambda x: _evaluate(x, px, np.ones(5, bool), False)[0], start,
+                        jac=lambda x: _evaluate(x, px, np.ones(5, bool), True)[1],
+                        bounds=(lo, hi_exposure), x_scale=0.05, xtol=1e-12, ftol=1e-12,
+                        gtol=1e-12)
+    assert q[4] == pytest.approx(0.1, abs=1e-9)
+    np.testing.assert_allclose(q, ref.x, rtol=0, atol=1e-5)
+    # the evaluations' limit: it stops there (status 0), at the last point accepted, below
+    # the start's cost
+    _, res0, _ = _fit_frame(px, start, lo, hi, max_nfev=1)
+    _, res3, status3 = _fit_frame(px, start, lo, hi, max_nfev=3)
+    assert status3 == 0 and float(res3 @ res3) < float(res0 @ res0)
+
+
 # --------------------------------------------------------------------------- small-ball centres
 
 

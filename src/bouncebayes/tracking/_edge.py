@@ -24,8 +24,9 @@ blurred::
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
 ``(c, r, sigma, a)`` the linear coefficients are solved by least squares (variable
-projection), and those five by ``scipy.optimize.least_squares`` (the residual's analytic
-Jacobian from the same compiled call, :func:`._edge_kernel.varpro`) from the best point of a grid
+projection), and those five by a compiled Levenberg-Marquardt within bounds
+(:func:`._edge_kernel.fit_frame`, on the residual's analytic Jacobian from the same compiled
+call, :func:`._edge_kernel.varpro`) from the best point of a grid
 of radius and blur (the model has local minima where blur trades against the shading near the
 rim). Saturated pixels (a specular highlight) are left out, and pixels the smooth model cannot
 follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass.
@@ -48,7 +49,7 @@ INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (b
 MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
 FIRST_FRAMES = 5   # of which fitted with blur and exposure free
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
-XTOL = FTOL = 1e-4  # least_squares' tolerances ...
+XTOL = FTOL = 1e-4  # the fits' tolerances (as SciPy's least_squares') ...
 MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic change, 2-5x
 #                     the time; docs/tracking.md section 3)
 
@@ -245,28 +246,6 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels |
                    np.zeros(n, np.intp), 1, np.ones(n))
 
 
-class _Model:
-    """The residuals and their analytic Jacobian as functions of the free parameters ``x``
-    (``q`` with ``free`` replaced), for ``least_squares``: both come from one compiled call,
-    kept for the Jacobian that ``least_squares`` asks for at the point it just evaluated."""
-
-    def __init__(self, q: np.ndarray, free: np.ndarray, px: _Pixels):
-        self.q, self.free, self.px = q.copy(), free, px
-        self.x: np.ndarray | None = None
-        self.jacobian = np.empty((0, 0))
-
-    def res(self, x: np.ndarray) -> np.ndarray:
-        self.q[self.free] = x
-        res, self.jacobian = _evaluate(self.q, self.px, self.free, True)
-        self.x = x.copy()
-        return res
-
-    def jac(self, x: np.ndarray) -> np.ndarray:
-        if self.x is None or not np.array_equal(x, self.x):
-            self.res(x)
-        return self.jacobian
-
-
 class EdgeFit(NamedTuple):
     """One frame's fit: centre and radius (px), blur sigma (px), exposure, RMS residual."""
 
@@ -283,7 +262,7 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
     """Fit the edge model to one frame around ``centre`` (px; ``bg`` the background model
     scaled to the frame, ``velocity`` px per frame) from a first radius ``r0``; with ``blur =
     (sigma, exposure)`` those are held. None if the pixels leave the frame or the fit fails."""
-    from scipy.optimize import least_squares
+    from ._edge_kernel import fit_frame
 
     speed = math.hypot(*velocity)
     q = np.array([centre[0], centre[1], r0, 0.6, 0.0]) if blur else \
@@ -303,22 +282,26 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
             return None
         q = np.clip(q, lo + 1e-9, hi - 1e-9)
 
-        def solve(px, x0, q=q):
-            model = _Model(q, ~fixed, px)
-            return least_squares(model.res, x0, jac=model.jac, bounds=(lo[~fixed], hi[~fixed]),
-                                 x_scale=0.05, xtol=XTOL, ftol=FTOL, max_nfev=MAX_NFEV)
+        def solve(px, q):
+            zt, gt = _sqrt_table()
+            q, res, status = fit_frame(q, ~fixed, lo[~fixed], hi[~fixed], 0.05, XTOL, FTOL,
+                                       MAX_NFEV, px.u, px.v, px.dir_u, px.dir_v, px.speed,
+                                       px.frame, px.n_frames, px.weight, px.grey, px.bg,
+                                       float(zt[0]), float(zt[1] - zt[0]), gt, RIM_ORDER)
+            if status < 0:
+                raise np.linalg.LinAlgError("edge model: singular normal equations")
+            return q, res
 
         try:
-            fit = solve(px, q[~fixed])
+            q, fit = solve(px, q)
             # again with the pixels the smooth model cannot follow left out
-            scale = 1.4826 * float(np.median(np.abs(fit.fun))) + 1e-9
-            px = px._replace(weight=(np.abs(fit.fun) <= 4.0 * scale).astype(np.float64))
-            fit = solve(px, fit.x)
-        except (ValueError, np.linalg.LinAlgError):
+            scale = 1.4826 * float(np.median(np.abs(fit))) + 1e-9
+            px = px._replace(weight=(np.abs(fit) <= 4.0 * scale).astype(np.float64))
+            q, fit = solve(px, q)
+        except np.linalg.LinAlgError:
             return None
-        q[~fixed] = fit.x
     assert fit is not None and px is not None
-    rms = math.sqrt(float(fit.fun @ fit.fun) / max(float(px.weight.sum()), 1.0))
+    rms = math.sqrt(float(fit @ fit) / max(float(px.weight.sum()), 1.0))
     cx, cy, r, sigma, exposure = (float(v) for v in q)
     return EdgeFit(cx, cy, r, sigma, exposure, rms)
 

@@ -1,15 +1,16 @@
 """The edge model, compiled: its residual and analytic Jacobian in one fused pass over the
-pixels.
+pixels, and the least-squares fit of one frame that calls it.
 
 The same arithmetic as the NumPy reference ``_edge._design_numpy`` (kept for the tests, which
 compare the two), without its ~40 temporary arrays and NumPy's per-call overhead: the edge
-model is evaluated ~300 times per video inside ``scipy.optimize.least_squares``. Each call
-builds the design matrix, solves the linear coefficients (variable projection) and, for
-``least_squares``'s ``jac=``, differentiates the projected residual with respect to the
-nonlinear parameters (the design's derivatives by forward-mode differentiation of each
-pixel's row, by hand): with finite differences instead the model was evaluated ~1000 times
-per video. Written here because no library builds this model; imported by ``_edge`` where
-the model runs (numba stays out of the package import).
+model is evaluated ~300 times per video. Each call builds the design matrix, solves the
+linear coefficients (variable projection) and differentiates the projected residual with
+respect to the nonlinear parameters (the design's derivatives by forward-mode
+differentiation of each pixel's row, by hand): with finite differences instead the model was
+evaluated ~1000 times per video. :func:`fit_frame` is the bounded Levenberg-Marquardt over
+those parameters (it replaced ``scipy.optimize.least_squares``, whose Python cost was most of
+the tracker's time on the paper's camera). Written here because no library builds this model;
+imported by ``_edge`` where the model runs (numba stays out of the package import).
 """
 
 from __future__ import annotations
@@ -341,3 +342,156 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
                 t -= a[i, c] * sol[c, col]
             jac[i, col] = t
     return res, jac, True
+
+
+@njit(cache=True)
+def _evaluate(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0, dz,
+              table, rim_order):
+    """:func:`varpro` at ``q = (cx, cy, r, sigma, exposure)`` of one frame's pixels, with the
+    Jacobian; ``ok`` False where the normal equations are singular or a residual is not
+    finite."""
+    zero = np.zeros(u.size)
+    res, jac, ok = varpro(q[0], q[1], q[2], q[3], q[4], free, u, v, zero, zero, dir_u, dir_v,
+                          speed, frame, n_frames, weight, grey, bg, z0, dz, table, rim_order,
+                          True)
+    if ok:
+        for i in range(res.size):
+            if not math.isfinite(res[i]):
+                return res, jac, False
+    return res, jac, ok
+
+
+@njit(cache=True)
+def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_v, speed,
+              frame, n_frames, weight, grey, bg, z0, dz, table, rim_order):
+    """Least squares of the edge model of one frame over the parameters of ``q0 = (cx, cy, r,
+    sigma, exposure)`` flagged in ``free``, within ``lo <= x <= hi`` (the free ones):
+    Levenberg-Marquardt on the analytic Jacobian of :func:`varpro`, in the variables
+    ``x / x_scale``, the damping updated from the gain ratio (Nielsen 1999: ``lambda`` times
+    ``max(1/3, 1 - (2 rho - 1)^3)`` on success, doubling factors on failure), a step clipped to
+    the bounds, and SciPy ``least_squares``' stopping rules (``ftol``: the cost fell by less
+    than ``ftol`` of itself with a gain ratio above 0.25; ``xtol``: a step shorter than
+    ``xtol (xtol + |x|)``; at most ``max_nfev`` evaluations of the model). Returns ``(q,
+    residuals at q, status)``; ``status`` -1 where the start cannot be evaluated, else the
+    number of the rule that stopped it (0: evaluations, 1: gradient, 2: ``ftol``, 3: ``xtol``).
+
+    Written here rather than calling ``scipy.optimize.least_squares``: that one's Python costs
+    ~1.5 ms a fit against ~0.15 ms for the model itself, and the tracker fits ~60 times a
+    video (the paper's camera: 224 x 64 px at 1000 fps, ~1.2 ms a second of video for the
+    per-frame work; docs/tracking.md §4)."""
+    q = q0.copy()
+    nf = 0
+    for k in range(5):
+        nf += 1 if free[k] else 0
+    idx = np.empty(nf, np.int64)
+    j = 0
+    for k in range(5):
+        if free[k]:
+            idx[j] = k
+            j += 1
+    res, jac, ok = _evaluate(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
+                             grey, bg, z0, dz, table, rim_order)
+    if not ok:
+        return q, res, -1
+    nfev = 1
+    cost = 0.5 * np.dot(res, res)
+    lam = -1.0
+    nu = 2.0
+    jtj = np.empty((nf, nf))
+    grad = np.empty(nf)
+    mat = np.empty((nf, nf))
+    step = np.empty(nf)
+    held = np.zeros(nf, np.bool_)
+    trial = np.empty(5)
+    status = 0
+    fresh = True  # jtj and grad are those of the current point
+    while nfev < max_nfev:
+        if fresh:
+            for a in range(nf):
+                t = 0.0
+                for i in range(res.size):
+                    t += jac[i, a] * res[i]
+                grad[a] = t * x_scale
+                for b in range(a + 1):
+                    t = 0.0
+                    for i in range(res.size):
+                        t += jac[i, a] * jac[i, b]
+                    jtj[a, b] = jtj[b, a] = t * x_scale * x_scale
+            gmax = 0.0
+            for a in range(nf):
+                gmax = max(gmax, abs(grad[a]))
+            if gmax < 1e-8:
+                status = 1
+                break
+            if lam < 0.0:
+                dmax = 0.0
+                for a in range(nf):
+                    dmax = max(dmax, jtj[a, a])
+                lam = 1e-6 * dmax + 1e-300
+            fresh = False
+        # a parameter at a bound that the gradient pushes outwards stays there (its column
+        # left out of the step): a step clipped afterwards would point elsewhere
+        for a in range(nf):
+            k = idx[a]
+            span = 1e-9 * (hi[a] - lo[a])
+            held[a] = ((q[k] <= lo[a] + span and grad[a] > 0.0)
+                       or (q[k] >= hi[a] - span and grad[a] < 0.0))
+        for a in range(nf):
+            for b in range(nf):
+                mat[a, b] = 0.0 if held[a] or held[b] else jtj[a, b]
+            mat[a, a] += 1.0 if held[a] else lam
+            step[a] = 0.0 if held[a] else -grad[a]
+        if not _cholesky(mat):  # a Jacobian with a NaN: no step can be found
+            lam *= nu
+            nu *= 2.0
+            if not lam < 1e300:
+                status = 1
+                break
+            continue
+        _cho_solve(mat, step)
+        # the step clipped to the bounds, back in the scaled variables
+        xnorm = 0.0
+        snorm = 0.0
+        for k in range(5):
+            trial[k] = q[k]
+        for a in range(nf):
+            k = idx[a]
+            x = min(max(q[k] + x_scale * step[a], lo[a]), hi[a])
+            trial[k] = x
+            step[a] = (x - q[k]) / x_scale
+            xnorm += q[k] * q[k]
+            snorm += (x - q[k]) * (x - q[k])
+        predicted = 0.0
+        for a in range(nf):
+            t = 0.0
+            for b in range(nf):
+                t += jtj[a, b] * step[b]
+            predicted -= grad[a] * step[a] + 0.5 * step[a] * t
+        small = math.sqrt(snorm) < xtol * (xtol + math.sqrt(xnorm))
+        res_t, jac_t, ok = _evaluate(trial, free, u, v, dir_u, dir_v, speed, frame, n_frames,
+                                     weight, grey, bg, z0, dz, table, rim_order)
+        nfev += 1
+        actual = cost - 0.5 * np.dot(res_t, res_t) if ok else -math.inf
+        if predicted > 0.0 and actual > 1e-4 * predicted:
+            rho = actual / predicted
+            for k in range(5):
+                q[k] = trial[k]
+            res, jac = res_t, jac_t
+            lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+            nu = 2.0
+            fresh = True
+            if actual < ftol * cost and rho > 0.25:
+                status = 2
+                cost -= actual
+                break
+            cost -= actual
+            if small:
+                status = 3
+                break
+        else:
+            if small:
+                status = 3
+                break
+            lam *= nu
+            nu *= 2.0
+    return q, res, status

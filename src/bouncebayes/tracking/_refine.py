@@ -32,8 +32,10 @@ radius is its own: the edge model's is off by up to 18 % at this size under MPEG
 version) its radius came out ~0.3 px small at a blur of 0.6 px, pulling the centres towards
 the lit side by up to 0.18 px.
 
-Why not the edge model itself on every frame: ~7 ms a frame through ``least_squares`` (35x
-the 224 x 64 speed target's budget); this fit, compiled, ~20 us a frame. Written by hand
+Why not the edge model itself on every frame: ~2 ms a frame even compiled (four fits of 5-11
+model evaluations, each solving ~20 linear coefficients; 10x the 224 x 64 speed target's
+budget, and ~7 ms through ``scipy.optimize.least_squares`` before); this fit, compiled, ~20 us
+a frame. Written by hand
 because no library fits a blurred disk per frame at this cost.
 """
 
