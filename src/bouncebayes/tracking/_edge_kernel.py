@@ -368,17 +368,20 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
     sigma, exposure)`` flagged in ``free``, within ``lo <= x <= hi`` (the free ones):
     Levenberg-Marquardt on the analytic Jacobian of :func:`varpro`, in the variables
     ``x / x_scale``, the damping updated from the gain ratio (Nielsen 1999: ``lambda`` times
-    ``max(1/3, 1 - (2 rho - 1)^3)`` on success, doubling factors on failure), a step clipped to
-    the bounds, and SciPy ``least_squares``' stopping rules (``ftol``: the cost fell by less
-    than ``ftol`` of itself with a gain ratio above 0.25; ``xtol``: a step shorter than
-    ``xtol (xtol + |x|)``; at most ``max_nfev`` evaluations of the model). Returns ``(q,
-    residuals at q, status)``; ``status`` -1 where the start cannot be evaluated, else the
-    number of the rule that stopped it (0: evaluations, 1: gradient, 2: ``ftol``, 3: ``xtol``).
+    ``max(1/3, 1 - (2 rho - 1)^3)`` on success, doubling factors on failure) from 1e-6 of the
+    largest curvature (nearly Gauss-Newton), a parameter at a bound that the gradient pushes
+    outwards held there for the step, the step clipped to the bounds, and SciPy
+    ``least_squares``' stopping rules (gradient below 1e-8 in the scaled variables; ``ftol``:
+    the cost fell by less than ``ftol`` of itself with a gain ratio above 0.25; ``xtol``: a
+    step shorter than ``xtol (xtol + |x|)``; at most ``max_nfev`` evaluations of the model).
+    Returns ``(q, residuals at q, status)``; ``status`` -1 where the start cannot be evaluated,
+    else the number of the rule that stopped it (0: evaluations, 1: gradient, 2: ``ftol``, 3:
+    ``xtol``).
 
     Written here rather than calling ``scipy.optimize.least_squares``: that one's Python costs
     ~1.5 ms a fit against ~0.15 ms for the model itself, and the tracker fits ~60 times a
-    video (the paper's camera: 224 x 64 px at 1000 fps, ~1.2 ms a second of video for the
-    per-frame work; docs/tracking.md §4)."""
+    video; on the paper's camera (224 x 64 px, 1200 frames) SciPy's share was as much as all
+    the per-frame work (~90 ms a video; docs/tracking.md §4)."""
     q = q0.copy()
     nf = 0
     for k in range(5):

@@ -25,7 +25,10 @@ more than ``PREDICT_PX`` (the impact). The radius first (free, with the centre, 
 
 Measured over the 32 clips of ``benchmarks/paper_camera.py`` (radius 5 px; RMS error of the
 centres, mean over clips): the coverage centroid with the edge fits' offset 0.224 px; this
-fit 0.092 px (0.088 with two steps from the centroid in every frame, ~10 % more time). Its
+fit 0.092 px (0.088 with two steps from the centroid in every frame, ~10 % more time), 0.098
+px with the blur from the compiled edge fit (docs/tracking.md section 4). Two more shading
+terms, ``N X`` and ``N Y`` (the limb of a side-lit ball), were tried with the one step per
+frame: 0.161 px. Its
 radius is its own: the edge model's is off by up to 18 % at this size under MPEG-4
 (docs/tracking.md section 3), and even the true radius held gives 0.124 px (the true blur
 0.099): the fitted ones are this model's effective values. With ``n_z`` unblurred (an earlier
