@@ -274,7 +274,7 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
     fixed = np.zeros(5, bool) if blur is None else np.array([0, 0, 0, 1, 1], bool)
     lo = np.array([q[0] - 2, q[1] - 2, 0.75 * q[2], 0.05, 0.0])
     hi = np.array([q[0] + 2, q[1] + 2, 1.3 * q[2], 3.0, 1.0 if speed > 0.2 else 1e-3])
-    fit = px = None
+    res = px = None
     for _ in range(2):  # twice: the pixels are chosen again from the first fit
         b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
         px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
@@ -293,15 +293,15 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
             return q, res
 
         try:
-            q, fit = solve(px, q)
+            q, res = solve(px, q)
             # again with the pixels the smooth model cannot follow left out
-            scale = 1.4826 * float(np.median(np.abs(fit))) + 1e-9
-            px = px._replace(weight=(np.abs(fit) <= 4.0 * scale).astype(np.float64))
-            q, fit = solve(px, q)
+            scale = 1.4826 * float(np.median(np.abs(res))) + 1e-9
+            px = px._replace(weight=(np.abs(res) <= 4.0 * scale).astype(np.float64))
+            q, res = solve(px, q)
         except np.linalg.LinAlgError:
             return None
-    assert fit is not None and px is not None
-    rms = math.sqrt(float(fit @ fit) / max(float(px.weight.sum()), 1.0))
+    assert res is not None and px is not None
+    rms = math.sqrt(float(res @ res) / max(float(px.weight.sum()), 1.0))
     cx, cy, r, sigma, exposure = (float(v) for v in q)
     return EdgeFit(cx, cy, r, sigma, exposure, rms)
 
