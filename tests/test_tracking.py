@@ -422,7 +422,7 @@ def test_the_coverage_radius_the_edge_model_replaces_was_biased():
 
 @pytest.mark.parametrize("light, seed", [((-0.15, 0.25, 0.95), 6), ((0.0, 0.0, 1.0), 7)],
                          ids=["lit-from-above", "frontal-light"])
-def test_the_papers_camera(tmp_path, light, seed):
+def test_the_papers_camera(tmp_path, capsys, light, seed):
     """224 x 64 px at 1000 fps, a 10 px ball, MJPEG (Casio EX-ZR100, paper §3). The frontal
     light (seed 7) is the clip of benchmarks/paper_camera.py whose radius comes out +15 %
     (5.75 px): its rebound speed's z was -7.1 with the small-ball term of the radius' stated
@@ -457,10 +457,19 @@ def test_the_papers_camera(tmp_path, light, seed):
     record = json.loads(written["record"].read_text(encoding="utf-8"))
     assert record["per_frame"]["refined"] == tr.refined.astype(int).tolist()
     assert record["quality"]["refined_frames"] == int(tr.refined.sum())
-    # a ball this small: the record and `track` say the scale is uncertain, and by how much
+    # a ball this small: the record and `track` say the scale is uncertain, and by how much;
+    # not where the scale came from a length in the scene
     assert radius_warning(tr) is not None
     assert record["ball"]["warning"] == radius_warning(tr)
     assert "give --reference" in record["ball"]["warning"]
+    if seed == 7:
+        surface = ",".join(f"{v:g}" for v in (x1, y1, x2, y2))
+        for scale, warned in ((["--ball-diameter", f"{shot.diameter_m}"], True),
+                              (["--reference", "0,0,100,0,0.256,0.0005"], False)):
+            assert run_cli(["track", str(path), "--out", str(tmp_path / "cli"), "--fps",
+                            "1000", "--surface", surface, *scale]) == 0
+            printed = capsys.readouterr().out
+            assert ("warning: the ball is" in printed) == warned, printed
     fit = fit_kinematics(read_trajectory(written["trajectory"]))
     speed_sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
     assert abs(fit.rebound_speed - shot.throw.rebound_speed()) < 3 * speed_sd
