@@ -47,7 +47,6 @@ from bouncebayes.kinematics import (  # noqa: E402
 from bouncebayes.tracking import (  # noqa: E402
     Surface,
     read_frames,
-    track_ball,
     track_video,
     write_track_files,
 )
@@ -82,9 +81,10 @@ def clip_frames(s: Shot, codec: str, name: str, tmp: Path, cache: Path | None) -
     return frames
 
 
-def kinematics(frames: np.ndarray, s: Shot, tmp: Path) -> dict:
-    """Track the frames as a video of 1000 fps (a lossless image sequence) with the ball's
-    diameter for the scale and the renderer's surface line, and fit the kinematics."""
+def track_and_fit(frames: np.ndarray, s: Shot, tmp: Path):
+    """Track the frames as a video of 1000 fps (a lossless image sequence, so the same frames
+    as in memory) with the ball's diameter for the scale and the renderer's surface line, and
+    fit the kinematics: the track, and the row's scale and kinematics entries."""
     import cv2
 
     folder = tmp / "frames"
@@ -106,14 +106,16 @@ def kinematics(frames: np.ndarray, s: Shot, tmp: Path) -> dict:
     try:
         fit = fit_kinematics(read_trajectory(files["trajectory"]))
     except TrajectoryError as exc:  # a gate rejected the track: said, and no z-scores
-        return row | {"accepted": False, "rejected_because": str(exc),
-                      "rebound_speed_z": None, "rebound_angle_z": None}
+        return video.track, row | {"accepted": False, "rejected_because": str(exc),
+                                   "rebound_speed_z": None, "rebound_angle_z": None}
     speed_sd = float(np.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd))
-    return row | {"accepted": True,
-                  "rebound_speed_z": round((fit.rebound_speed - s.throw.rebound_speed())
-                                           / speed_sd, 2),
-                  "rebound_angle_z": round((fit.rebound_angle - s.throw.rebound_angle())
-                                           / fit.rebound_angle_se, 2)}
+    return video.track, row | {"accepted": True,
+                               "rebound_speed_z": round((fit.rebound_speed
+                                                         - s.throw.rebound_speed())
+                                                        / speed_sd, 2),
+                               "rebound_angle_z": round((fit.rebound_angle
+                                                         - s.throw.rebound_angle())
+                                                        / fit.rebound_angle_se, 2)}
 
 
 def main(argv=None) -> dict:
@@ -130,7 +132,7 @@ def main(argv=None) -> dict:
                         s = shot(light, seed, sigma)
                         name = f"{lname}-{codec}-{seed}-{sigma}"
                         frames = clip_frames(s, codec, name, Path(tmp), args.cache)
-                        tr = track_ball(frames)
+                        tr, fitted = track_and_fit(frames, s, Path(tmp))
                         truth = s.true_centres()
                         r = s.radius_px
                         whole = ((truth[:, 0] >= r) & (truth[:, 0] <= s.width - 1 - r)
@@ -147,7 +149,7 @@ def main(argv=None) -> dict:
                                      "offset_px": [round(float(v), 4) for v in off],
                                      "bias_px": [round(float(v), 4) for v in err.mean(axis=0)],
                                      "radius_px": round(tr.ball_radius, 3),
-                                     **kinematics(frames, s, Path(tmp))})
+                                     **fitted})
                         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     cur = np.array([r["rms_px"] for r in rows])
     load = subprocess.run(["cat", "/proc/loadavg"], capture_output=True, text=True).stdout.split()

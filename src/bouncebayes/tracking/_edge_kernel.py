@@ -345,8 +345,8 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
 
 
 @njit(cache=True)
-def _evaluate(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0, dz,
-              table, rim_order):
+def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0,
+                    dz, table, rim_order):
     """:func:`varpro` at ``q = (cx, cy, r, sigma, exposure)`` of one frame's pixels, with the
     Jacobian; ``ok`` False where the normal equations are singular or a residual is not
     finite."""
@@ -392,8 +392,8 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
         if free[k]:
             idx[j] = k
             j += 1
-    res, jac, ok = _evaluate(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
-                             grey, bg, z0, dz, table, rim_order)
+    res, jac, ok = _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
+                                   grey, bg, z0, dz, table, rim_order)
     if not ok:
         return q, res, -1
     nfev = 1
@@ -471,8 +471,9 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
                 t += jtj[a, b] * step[b]
             predicted -= grad[a] * step[a] + 0.5 * step[a] * t
         small = math.sqrt(snorm) < xtol * (xtol + math.sqrt(xnorm))
-        res_t, jac_t, ok = _evaluate(trial, free, u, v, dir_u, dir_v, speed, frame, n_frames,
-                                     weight, grey, bg, z0, dz, table, rim_order)
+        res_t, jac_t, ok = _evaluate_frame(trial, free, u, v, dir_u, dir_v, speed, frame,
+                                           n_frames, weight, grey, bg, z0, dz, table,
+                                           rim_order)
         nfev += 1
         actual = cost - 0.5 * np.dot(res_t, res_t) if ok else -math.inf
         if predicted > 0.0 and actual > 1e-4 * predicted:
@@ -483,11 +484,10 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
             lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
             nu = 2.0
             fresh = True
-            if actual < ftol * cost and rho > 0.25:
+            before, cost = cost, cost - actual
+            if actual < ftol * before and rho > 0.25:
                 status = 2
-                cost -= actual
                 break
-            cost -= actual
             if small:
                 status = 3
                 break
