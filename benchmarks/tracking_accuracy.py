@@ -8,7 +8,10 @@ code shared with the tracker or ``tests/video_helpers.py``) over a sweep of scen
 - lens blur sigma 0, 0.7 and 1.5 px; exposure 0 and 80 % of the frame interval;
 - lighting: ``side`` (bright ball lit from the upper left, Lambert with limb darkening), ``glossy``
   (with a saturated Blinn-Phong highlight), ``dark`` (dark ball on a bright wall);
-- at radius 5 and 10 px, sigma 0.7, exposure 0.4: MJPG and MPEG-4 (mp4v) compression.
+- at radius 5 and 10 px, sigma 0.7, exposure 0.4: MJPG and MPEG-4 (mp4v) compression;
+- a plain wall (no texture, as in most laboratory footage) for each radius and lighting at
+  sigma 0.7 and 1.5, exposure 0: there the ball's own path is the only structure in the
+  per-pixel median background (``wall: "plain"``; ``"textured"`` elsewhere).
 
 For each: the relative error of the ball's radius (= of the ``--ball-diameter`` scale), the
 stated relative standard deviation (``Calibration.relative_sd``) and their ratio (z), the RMS
@@ -50,7 +53,7 @@ RESULTS = Path(__file__).resolve().parent / "results" / "tracking_accuracy.json"
 
 
 def shot_for(radius: float, sigma: float, exposure: float, lighting: str,
-             codec: str | None, seed: int) -> Shot:
+             codec: str | None, seed: int, wall: str = "textured") -> Shot:
     """A 90-frame bounce in which the ball moves ~1.5 px per frame whatever its size."""
     width, height = int(max(160, 16 * radius)), int(max(96, 10 * radius))
     mpp = 0.0256 / (2 * radius)
@@ -60,11 +63,11 @@ def shot_for(radius: float, sigma: float, exposure: float, lighting: str,
                 codec=codec, seed=seed,
                 throw=Throw(speed_in=speed, angle_in=50.0, t_contact=0.045,
                             x_contact=0.5 * width * mpp),
-                **LIGHTING[lighting])
+                **{**LIGHTING[lighting], **({"texture": 0.0} if wall == "plain" else {})})
 
 
-def scenario(radius, sigma, exposure, lighting, codec, seed) -> dict:
-    shot = shot_for(radius, sigma, exposure, lighting, codec, seed)
+def scenario(radius, sigma, exposure, lighting, codec, seed, wall="textured") -> dict:
+    shot = shot_for(radius, sigma, exposure, lighting, codec, seed, wall)
     frames = render(shot)
     t0, c0 = time.perf_counter(), time.process_time()
     track = track_ball(frames)
@@ -82,7 +85,7 @@ def scenario(radius, sigma, exposure, lighting, codec, seed) -> dict:
     centre_rms = float(np.sqrt(np.nanmean(np.sum((track.centre[ok] - truth[ok]) ** 2, axis=1))))
     sd = cal.relative_sd if cal.relative_sd is not None else float("nan")
     return {"radius_px": radius, "sigma_px": sigma, "exposure": exposure,
-            "lighting": lighting, "codec": codec or "none", "seed": seed,
+            "lighting": lighting, "wall": wall, "codec": codec or "none", "seed": seed,
             "scale_error_pct": round(100 * err, 3), "stated_sd_pct": round(100 * sd, 3),
             "z": round(err / sd, 2) if sd > 0 else None,
             "fitted_sigma_px": round(track.radius_fit.sigma, 3) if track.radius_fit else None,
@@ -100,6 +103,8 @@ def main(argv=None) -> dict:
     grid = [(r, s, e, li, None, 0) for r, s, e, li in
             itertools.product(radii, (0.0, 0.7, 1.5), (0.0, 0.8), lights)]
     grid += [(r, 0.7, 0.4, "side", c, 1) for r in (5.0, 10.0) for c in ("MJPG", "mp4v")]
+    grid += [(r, s, 0.0, li, None, 0, "plain") for r, s, li in
+             itertools.product(radii, (0.7, 1.5), lights)]
     rows = []
     scenario(*grid[0])  # loads the compiled kernels (numba's cache), so no row pays for it
     for g in grid:

@@ -55,29 +55,39 @@ MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
-# frames: SYSTEMATIC_PX, plus a term that grows steeply where the blur is a large part of the
-# radius (there blur trades against the shading near the rim): BLUR_TERM * (sigma / r)^4, with
-# the fitted sigma. Both set from the sweep of benchmarks/tracking_accuracy.py
-# (docs/tracking.md): errors up to ~0.07 px at sigma/r < 0.1, ~0.25 px at 0.14-0.15 and
-# 0.75-1.3 px at 0.18-0.26.
+# frames: SYSTEMATIC_PX, plus a term that grows steeply with the blur (there blur trades
+# against the shading near the rim): BLUR_PX3 * sigma^3 (px, sigma the fitted blur in px).
+# Both set from the sweep of benchmarks/tracking_accuracy.py (docs/tracking.md §3), textured
+# and plain walls: errors up to ~0.05 px at sigma ~0.1, 0.12 at 0.7 and 0.7 px at 1.5 (a glossy
+# ball of radius 15 px on a plain wall) whatever the radius (10 or 15 px; at 5 px up to 0.8 px,
+# which the small-ball term below holds). The sweep before the background left the ball out
+# and the fit's starts reached below the coverage radius set it to 600 (sigma / r)^4 px (0.06 px
+# at r = 15, sigma = 1.5; those plain-wall errors were up to 0.87 px there).
 SYSTEMATIC_PX = 0.06
-BLUR_TERM = 600.0
+BLUR_PX3 = 0.09
 # ... plus SMALL_BALL_PX5 / r^4 (px): a ball a few pixels across leaves the fit a few dozen rim
-# pixels, where shading, blur and exposure trade against the radius (docs/tracking.md §3):
-# on the paper's camera (r = 5 px, benchmarks/paper_camera.py) the radius came out -5 to +18 %
-# (frontal light, blur 0.6 px: +13 to +18 %, with a fitted blur of 0.16-0.53 px), and MPEG-4
-# blocks or a glossy highlight move it by up to 0.5 px at r = 5 px in the sweep. Set so that
-# those radii have |z| <= 2.5 (0.60 px at r = 5, 0.23 at 6.4, 0.04 at 10, 0.007 at 15; the
-# earlier 2 px^2 / r^2, 0.08 px at r = 5, left |z| up to 6.7 there).
-SMALL_BALL_PX5 = 375.0
+# pixels, where shading, blur and exposure trade against the radius (docs/tracking.md §3).
+# On the paper's camera (r = 5 px, benchmarks/paper_camera.py, 32 clips) the radius comes out
+# -6 to +10 % (up to 0.52 px); 200 px^5 (0.32 px at r = 5, 0.12 at 6.4, 0.02 at 10) gives
+# those scales |z| <= 1.8. It was 375 when the fits' starts stayed above 0.8 of the coverage
+# radius and frontally lit clips came out +13 to +18 % (fitted blur 0.16-0.53 px, true 0.6),
+# and 2 px^2 / r^2 (0.08 px at r = 5) before that, which left |z| up to 6.7 there.
+SMALL_BALL_PX5 = 200.0
 UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable
+# fitted sigma / r up to which the edge fits' centres correct the centroids' bias and the
+# small-ball fit (._refine) gives the centres: at 0.15 (as UNRELIABLE_BLUR until 2026-11-26) a
+# side-lit 5 px ball blurred by 0.7 px with exposure 80 % fell just above it (fitted 0.150):
+# centres 0.435 px RMS, 0.124 with the fit; radius 10 px, blur 1.5 px (fitted 0.155-0.158):
+# side-lit 0.88 -> 0.21 and 0.89 -> 0.14 px, dark 0.105 -> 0.09 (benchmarks/tracking_accuracy.py).
+# Above ~0.3 (5 px, blur 1.5 px) the fits hold a blur that trades against the shading and err more.
+CENTRE_FIT_BLUR = 0.2
 UNCERTAIN_RADIUS = 0.02  # relative SD of the radius above which a warning says to give a length
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
-    ratio = 0.0 if blur_px is None else blur_px / radius_px
-    return SYSTEMATIC_PX + BLUR_TERM * ratio**4 + SMALL_BALL_PX5 / radius_px**4
+    blur = 0.0 if blur_px is None else blur_px
+    return SYSTEMATIC_PX + BLUR_PX3 * blur**3 + SMALL_BALL_PX5 / radius_px**4
 
 
 def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None) -> float:
@@ -306,16 +316,22 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
     return EdgeFit(cx, cy, r, sigma, exposure, rms)
 
 
+# starting radii, in units of the coverage radius: 0.8-1.25, and down to 0.55 because a
+# blur inflates the coverage radius (+51 % for a dark 5 px ball blurred by 1.5 px on a plain
+# wall, where a start of 0.8 or more led the fit to a wrong minimum: +54 %; docs/tracking.md §3)
+_START_RADII = np.concatenate([[0.55, 0.62, 0.69, 0.76], np.linspace(0.8, 1.25, 8)])
+
+
 def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
     """The best starting ``(cx, cy, r, sigma, exposure)`` on a grid of radius, blur and
     exposure (centre held): the edge model has local minima where a blur trades against the
     shading near the rim."""
-    px = _pixels(img, bg, centre, velocity, 1.25 * r0, max(0.6 * r0, 4.0), 7.0)
+    px = _pixels(img, bg, centre, velocity, 1.25 * r0, 1.25 * r0, 7.0)
     if px is None or px.u.size < 40:
         return None
     best, q_best = math.inf, None
     for sigma in (0.2, 0.7, 1.3):
-        for r in r0 * np.linspace(0.8, 1.25, 8):
+        for r in r0 * _START_RADII:
             q = np.array([centre[0], centre[1], r, sigma, 0.0])
             try:
                 cost = float(np.sum(_residual(q, px) ** 2))

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ._edge import MAX_FRAMES, UNRELIABLE_BLUR, RadiusFit, fit_radius
+from ._edge import CENTRE_FIT_BLUR, MAX_FRAMES, RadiusFit, fit_radius
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
 
 FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
@@ -120,11 +120,12 @@ def _misfit(frames: np.ndarray, s: _Searcher, idx: np.ndarray, centre: np.ndarra
     return rel
 
 
-def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method: np.ndarray,
-                    flag: np.ndarray, radius: np.ndarray
+def fit_ball_radius(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre: np.ndarray,
+                    method: np.ndarray, flag: np.ndarray, radius: np.ndarray
                     ) -> tuple[RadiusFit | None, tuple[float, float]]:
     """The edge model on up to ``MAX_FRAMES`` trusted frames spread over the video (ball wholly
-    in view with a margin, both neighbours found for its velocity), with the centroids'
+    in view with a margin, both neighbours found for its velocity; ``bg`` the background
+    model with the ball left out, ``gains`` the frames' gains), with the centroids'
     per-frame SD (``centre_sd``); and the median offset of the edge fits' centres from the
     coverage centroids (applied to every centroid)."""
     whole = method == CENTROID
@@ -144,7 +145,7 @@ def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method
     pick = cand[np.unique(np.linspace(0, len(cand) - 1, min(MAX_FRAMES, len(cand))).round()
                           .astype(int))]
     vel = (centre[pick + 1] - centre[pick - 1]) / 2.0
-    fit = fit_radius([frames[k] for k in pick], [s.gains[k] * s.bg for k in pick],
+    fit = fit_radius([frames[k] for k in pick], [gains[k] * bg for k in pick],
                      centre[pick], vel, r0)
     if fit is None:
         return None, (0.0, 0.0)
@@ -156,6 +157,6 @@ def fit_ball_radius(frames: np.ndarray, s: _Searcher, centre: np.ndarray, method
     # renderer, MJPEG, radius 10 px, this is 0.05-0.10 px where the centroids' true RMS error
     # is 0.05-0.13 px, docs/tracking.md); correlated along the track (texture, codec)
     fit = fit._replace(centre_sd=float(np.sqrt(np.mean((diff - shift) ** 2))))
-    if fit.sigma > UNRELIABLE_BLUR * fit.radius:  # the edge fits' centres are not better
+    if fit.sigma > CENTRE_FIT_BLUR * fit.radius:  # the edge fits' centres are not better
         return fit, (0.0, 0.0)
     return fit, (float(shift[0]), float(shift[1]))

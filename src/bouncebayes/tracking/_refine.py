@@ -309,11 +309,11 @@ def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre
     """Refine, in place, the centres of the frames where the ball was found (``method``
     ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
     the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
-    ``SMALL_RADIUS``) and its fitted blur at most ``UNRELIABLE_BLUR`` of it. Returns the mask of
+    ``SMALL_RADIUS``) and its fitted blur at most ``CENTRE_FIT_BLUR`` of it. Returns the mask of
     the frames refined (a failed fit keeps its centroid) and their centres' formal standard
     errors ``(n, 2)`` (px; NaN where not refined). First ``RADIUS_FRAMES`` frames spread over
     the video with the radius free, then every frame with it held at their median."""
-    from ._edge import UNRELIABLE_BLUR
+    from ._edge import CENTRE_FIT_BLUR
     from ._measure import CENTROID, EDGE_FIT
 
     done = np.zeros(len(frames), bool)
@@ -321,8 +321,9 @@ def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre
     # not where the blur is a large part of the radius: there the edge model's blur trades
     # against the shading near the rim (docs/tracking.md section 3) and this fit, holding that
     # blur, errs more than the centroid (benchmarks/tracking_accuracy.py, radius 5 px, blur
-    # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px)
-    if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > UNRELIABLE_BLUR * fit.radius:
+    # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px, with fitted blurs of 18-23 % of the
+    # radius before the edge model's starts reached below the coverage radius; 31-41 % now)
+    if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > CENTRE_FIT_BLUR * fit.radius:
         return done, no_se
     idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT))
     if len(idx) < 3:

@@ -128,13 +128,38 @@ def background_model(frames: np.ndarray, n_frames: int = 25) -> np.ndarray:
     Equal to ``np.median(frames[idx], axis=0)``, 8x faster: a sorting network of element-wise
     minima and maxima (Batcher's odd-even merge sort, pruned to the middle elements).
     """
-    idx = np.unique(np.linspace(0, len(frames) - 1, min(len(frames), n_frames)).round())
+    idx = _background_index(len(frames), n_frames)
     n = len(idx)
     size, pairs = _median_network(n)
     rows = [frames[int(i)] for i in idx] + [np.full(frames.shape[1:], 255, np.uint8)] * (size - n)
     for a, b in pairs:
         rows[a], rows[b] = np.minimum(rows[a], rows[b]), np.maximum(rows[a], rows[b])
     return (rows[(n - 1) // 2].astype(np.float32) + rows[n // 2]) / 2
+
+
+def _background_index(n_frames: int, n: int) -> np.ndarray:
+    """The frames of the background model: ``n`` evenly spaced over ``n_frames``."""
+    return np.unique(np.linspace(0, n_frames - 1, min(n_frames, n)).round()).astype(np.int64)
+
+
+MIN_CLEAR = 5  # frames clear of the ball a pixel's ball-free background needs (else the median)
+
+
+def _ball_free_background(frames, bg64, gains, centre, radius, config) -> np.ndarray:
+    """The background model (float64) recomputed, near the ball's path, from the frames of the
+    median in which the ball is clear of the pixel (:func:`._fast.ball_free_background`): the
+    ball's coverage radius plus the blur's and the exposure's reach (the larger of 6 px and
+    the coverage radius' quarter, and half the largest move between frames)."""
+    from . import _fast
+
+    found = ~np.isnan(centre[:, 0])
+    if found.sum() < 2:
+        return bg64
+    step = np.hypot(*np.diff(centre[found], axis=0).T)
+    reach = float(np.nanmedian(radius)) * 1.25 + 6.0 + 0.5 * float(np.max(step, initial=0.0))
+    idx = _background_index(len(frames), config.background_frames)
+    return _fast.ball_free_background(np.ascontiguousarray(frames), idx, gains, bg64,
+                                      np.ascontiguousarray(centre[idx]), reach, MIN_CLEAR)
 
 
 @functools.lru_cache
@@ -210,13 +235,17 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     centre, radius, method, contrast = _finish(raw, border, edge_fit, config)
     residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
                                             compiled=compiled)
-    fit, offset = fit_ball_radius(frames, state, centre, method, flag, radius) if \
+    gains = np.asarray(state.gains, np.float64)
+    # the fits of the ball's edge and centre (not the search) get the background with the ball
+    # left out (:func:`._fast.ball_free_background`); a background given is used as it is
+    clean = state.bg64 if background is not None else \
+        _ball_free_background(frames, state.bg64, gains, centre, radius, config)
+    fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius) if \
         config.edge_model else (None, (0.0, 0.0))
     centre[method == CENTROID] += offset
     from ._refine import refine_centres, stated_centre_sd
 
-    refined, centre_se = refine_centres(frames, state.bg64, np.asarray(state.gains, np.float64),
-                                        centre, method, fit)
+    refined, centre_se = refine_centres(frames, clean, gains, centre, method, fit)
     if refined.any() and fit is not None:  # the refined centres' SD, not the centroids'
         fit = fit._replace(centre_sd=stated_centre_sd(centre_se[refined]))
     for a in (centre, radius, method, contrast, residual, visible, flag, refined):
