@@ -230,43 +230,61 @@ def _median(a):
 
 
 @njit(cache=True)
-def ball_free_background(frames, idx, gains, bg, centre, reach, min_clear):
-    """The background model with the ball left out: each pixel within ``reach`` (px) of the
-    ball's centre in one of the frames ``idx`` (those of the per-pixel median, ``centre``
-    their tracked centres, NaN where not found) gets the median of ``frame / gain`` over the
-    frames of ``idx`` where the ball is farther than ``reach`` from it, if at least
-    ``min_clear`` are; every other pixel keeps ``bg``.
+def ball_free_background(frames, idx, gains, bg, centre, reach, min_clear, around, half, tile):
+    """The background model with the ball left out, within ``half`` (px) of the points
+    ``around`` (``(m, 2)``, NaN rows skipped; where the fits will look): each pixel there
+    within ``reach`` (px) of the ball's centre in one of the frames ``idx`` (``centre`` their
+    tracked centres, NaN where not found) gets the median of ``frame / gain`` over the frames
+    of ``idx`` where the ball is farther than ``reach`` from it, if at least ``min_clear`` are;
+    every other pixel keeps ``bg``.
 
     The plain median takes in the frames the ball covers: a pixel on the ball's path is
     covered in ~1/4 of the frames of a 1.5 px-per-frame bounce, which moves the median by ~0.3
     noise SD towards the ball (1 grey level, the ball's side, on a flat wall with noise 3), in
     a band along the path. The edge model fits that band as the ball's rim: +5.8 % on the
-    radius of a dark 15 px ball blurred by 1.5 px on a flat wall (docs/tracking.md §3)."""
+    radius of a dark 15 px ball blurred by 1.5 px on a flat wall (docs/tracking.md §1). The
+    work goes tile by tile (``tile`` px square): a tile's pixels are first copied frame by
+    frame (contiguous rows), so the per-pixel pass over the frames reads from the cache and
+    not across whole frames."""
     n = len(idx)
     h, w = bg.shape
     out = bg.copy()
-    done = np.zeros((h, w), np.bool_)
-    buf = np.empty(n)
-    r2 = reach * reach
-    for s in range(n):
-        cx, cy = centre[s, 0], centre[s, 1]
+    need = np.zeros((h, w), np.bool_)
+    h2 = half * half
+    for k in range(around.shape[0]):
+        cx, cy = around[k, 0], around[k, 1]
         if math.isnan(cx):
             continue
-        i0, i1 = max(0, int(math.floor(cy - reach))), min(h, int(math.ceil(cy + reach)) + 1)
-        j0, j1 = max(0, int(math.floor(cx - reach))), min(w, int(math.ceil(cx + reach)) + 1)
-        for i in range(i0, i1):
-            for j in range(j0, j1):
-                if done[i, j] or (j - cx) ** 2 + (i - cy) ** 2 > r2:
-                    continue
-                done[i, j] = True
-                m = 0
-                for t in range(n):
-                    ox, oy = centre[t, 0], centre[t, 1]
-                    if math.isnan(ox) or (j - ox) ** 2 + (i - oy) ** 2 > r2:
-                        buf[m] = frames[idx[t], i, j] / gains[idx[t]]
-                        m += 1
-                if m >= min_clear:
-                    out[i, j] = _median(buf[:m])
+        for i in range(max(0, int(math.floor(cy - half))), min(h, int(math.ceil(cy + half)) + 1)):
+            for j in range(max(0, int(math.floor(cx - half))),
+                           min(w, int(math.ceil(cx + half)) + 1)):
+                if (j - cx) ** 2 + (i - cy) ** 2 <= h2:
+                    need[i, j] = True
+    buf = np.empty(n)
+    block = np.empty((n, tile, tile))
+    r2 = reach * reach
+    for i0 in range(0, h, tile):
+        for j0 in range(0, w, tile):
+            i1, j1 = min(h, i0 + tile), min(w, j0 + tile)
+            if not need[i0:i1, j0:j1].any():
+                continue
+            for t in range(n):
+                g = gains[idx[t]]
+                for i in range(i0, i1):
+                    for j in range(j0, j1):
+                        block[t, i - i0, j - j0] = frames[idx[t], i, j] / g
+            for i in range(i0, i1):
+                for j in range(j0, j1):
+                    if not need[i, j]:
+                        continue
+                    m = 0
+                    for t in range(n):
+                        ox, oy = centre[t, 0], centre[t, 1]
+                        if math.isnan(ox) or (j - ox) ** 2 + (i - oy) ** 2 > r2:
+                            buf[m] = block[t, i - i0, j - j0]
+                            m += 1
+                    if m < n and m >= min_clear:  # the ball near the pixel in some frame
+                        out[i, j] = _median(buf[:m])
     return out
 
 

@@ -120,12 +120,13 @@ def _misfit(frames: np.ndarray, s: _Searcher, idx: np.ndarray, centre: np.ndarra
     return rel
 
 
-def fit_ball_radius(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre: np.ndarray,
+def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndarray,
                     method: np.ndarray, flag: np.ndarray, radius: np.ndarray
                     ) -> tuple[RadiusFit | None, tuple[float, float]]:
     """The edge model on up to ``MAX_FRAMES`` trusted frames spread over the video (ball wholly
-    in view with a margin, both neighbours found for its velocity; ``bg`` the background
-    model with the ball left out, ``gains`` the frames' gains), with the centroids'
+    in view with a margin, both neighbours found for its velocity; ``clean(centres)`` the
+    background model with the ball left out around ``centres``, ``gains`` the frames' gains),
+    with the centroids'
     per-frame SD (``centre_sd``); and the median offset of the edge fits' centres from the
     coverage centroids (applied to every centroid)."""
     whole = method == CENTROID
@@ -145,6 +146,7 @@ def fit_ball_radius(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centr
     pick = cand[np.unique(np.linspace(0, len(cand) - 1, min(MAX_FRAMES, len(cand))).round()
                           .astype(int))]
     vel = (centre[pick + 1] - centre[pick - 1]) / 2.0
+    bg = clean(centre[pick])
     fit = fit_radius([frames[k] for k in pick], [gains[k] * bg for k in pick],
                      centre[pick], vel, r0)
     if fit is None:

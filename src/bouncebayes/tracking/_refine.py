@@ -304,7 +304,7 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
     return out
 
 
-def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre: np.ndarray,
+def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndarray,
                    method: np.ndarray, fit) -> tuple[np.ndarray, np.ndarray]:
     """Refine, in place, the centres of the frames where the ball was found (``method``
     ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
@@ -312,7 +312,8 @@ def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre
     ``SMALL_RADIUS``) and its fitted blur at most ``CENTRE_FIT_BLUR`` of it. Returns the mask of
     the frames refined (a failed fit keeps its centroid) and their centres' formal standard
     errors ``(n, 2)`` (px; NaN where not refined). First ``RADIUS_FRAMES`` frames spread over
-    the video with the radius free, then every frame with it held at their median."""
+    the video with the radius free, then every frame with it held at their median.
+    ``clean(centres)``: the background model with the ball left out around ``centres``."""
     from ._edge import CENTRE_FIT_BLUR
     from ._measure import CENTROID, EDGE_FIT
 
@@ -334,7 +335,7 @@ def refine_centres(frames: np.ndarray, bg: np.ndarray, gains: np.ndarray, centre
     vel = np.where(both[:, None], (centre[nxt] - centre[prev]) / np.maximum(nxt - prev, 1)[:, None],
                    0.0)
     frames = np.ascontiguousarray(frames)
-    bg64 = np.ascontiguousarray(bg, np.float64)
+    bg64 = np.ascontiguousarray(clean(centre[idx]), np.float64)
     gains = np.ascontiguousarray(gains, np.float64)
     start = np.ascontiguousarray(centre[idx], np.float64)
     vel = np.ascontiguousarray(vel, np.float64)

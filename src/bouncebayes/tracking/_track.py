@@ -143,23 +143,42 @@ def _background_index(n_frames: int, n: int) -> np.ndarray:
 
 
 MIN_CLEAR = 5  # frames clear of the ball a pixel's ball-free background needs (else the median)
+# Frames (evenly spaced) of the ball-free background: more than the median's 25, because the
+# edge model's cost falls where the background's noise is left out (the pixels the ball covers
+# do not see it), so that noise pushes the radius up along the cost's flat direction: dark
+# ball, radius 10 px, blur 1.5 px, plain wall, noise 3.3 grey levels: +5.4 % with 25 frames,
+# +0.2 % with 90 (benchmarks/tracking_accuracy.py; docs/tracking.md §1).
+CLEAN_FRAMES = 75
+TILE = 32  # px: the ball-free background is computed tile by tile (a tile's frames copied)
 
 
-def _ball_free_background(frames, bg64, gains, centre, radius, config) -> np.ndarray:
-    """The background model (float64) recomputed, near the ball's path, from the frames of the
-    median in which the ball is clear of the pixel (:func:`._fast.ball_free_background`): the
-    ball's coverage radius plus the blur's and the exposure's reach (the larger of 6 px and
-    the coverage radius' quarter, and half the largest move between frames)."""
+def _ball_free_background(frames, bg64, gains, centre, radius, config):
+    """A function ``clean(centres)``: the background model (float64) recomputed around the
+    ball's positions ``centres`` (px; within ``1.25 r + 12 px`` of them, where the edge and
+    centre fits read) from ``CLEAN_FRAMES`` evenly spaced frames in which the ball is clear of
+    the pixel (:func:`._fast.ball_free_background`): farther than ``1.25 r + 6 px + d / 2``
+    from its centre (``r`` the median coverage radius, ``d`` the largest move between frames:
+    the blur's and the exposure's reach beyond the rim). Where the ball is found in fewer than
+    two frames, the background model as it is."""
     from . import _fast
 
     found = ~np.isnan(centre[:, 0])
     if found.sum() < 2:
-        return bg64
+        return lambda centres: bg64
+    r = float(np.nanmedian(radius))
     step = np.hypot(*np.diff(centre[found], axis=0).T)
-    reach = float(np.nanmedian(radius)) * 1.25 + 6.0 + 0.5 * float(np.max(step, initial=0.0))
-    idx = _background_index(len(frames), config.background_frames)
-    return _fast.ball_free_background(np.ascontiguousarray(frames), idx, gains, bg64,
-                                      np.ascontiguousarray(centre[idx]), reach, MIN_CLEAR)
+    reach = 1.25 * r + 6.0 + 0.5 * float(np.max(step, initial=0.0))
+    idx = _background_index(len(frames), max(config.background_frames, CLEAN_FRAMES))
+    frames = np.ascontiguousarray(frames)
+    at = np.ascontiguousarray(centre[idx])
+    half = 1.25 * r + 12.0
+
+    def clean(centres: np.ndarray) -> np.ndarray:
+        around = np.ascontiguousarray(np.asarray(centres, np.float64).reshape(-1, 2))
+        return _fast.ball_free_background(frames, idx, gains, bg64, at, reach, MIN_CLEAR,
+                                          around, half, TILE)
+
+    return clean
 
 
 @functools.lru_cache
@@ -235,25 +254,34 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     centre, radius, method, contrast = _finish(raw, border, edge_fit, config)
     residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
                                             compiled=compiled)
-    gains = np.asarray(state.gains, np.float64)
-    # the fits of the ball's edge and centre (not the search) get the background with the ball
-    # left out (:func:`._fast.ball_free_background`); a background given is used as it is
-    clean = state.bg64 if background is not None else \
-        _ball_free_background(frames, state.bg64, gains, centre, radius, config)
-    fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius) if \
-        config.edge_model else (None, (0.0, 0.0))
-    centre[method == CENTROID] += offset
-    from ._refine import refine_centres, stated_centre_sd
-
-    refined, centre_se = refine_centres(frames, clean, gains, centre, method, fit)
-    if refined.any() and fit is not None:  # the refined centres' SD, not the centroids'
-        fit = fit._replace(centre_sd=stated_centre_sd(centre_se[refined]))
+    fit, offset, refined = _fit_ball(frames, state, background is not None, centre, radius,
+                                     method, flag, config)
     for a in (centre, radius, method, contrast, residual, visible, flag, refined):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, radius_fit=fit,
                  centre_offset=offset, refined=refined)
+
+
+def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
+    """The fits after the search, on ``centre`` (moved in place): the edge model's radius
+    (:func:`._quality.fit_ball_radius`), its centres' offset to the centroids, and the
+    small-ball centre fits (:func:`._refine.refine_centres`). They get the background with the
+    ball left out around where they look (:func:`_ball_free_background`), or the one given
+    (``given``) as it is. Returns the radius fit, the offset and the mask of refined frames."""
+    from ._refine import refine_centres, stated_centre_sd
+
+    gains = np.asarray(state.gains, np.float64)
+    clean = (lambda centres: state.bg64) if given else \
+        _ball_free_background(frames, state.bg64, gains, centre, radius, config)
+    fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius) if \
+        config.edge_model else (None, (0.0, 0.0))
+    centre[method == CENTROID] += offset
+    refined, centre_se = refine_centres(frames, clean, gains, centre, method, fit)
+    if refined.any() and fit is not None:  # the refined centres' SD, not the centroids'
+        fit = fit._replace(centre_sd=stated_centre_sd(centre_se[refined]))
+    return fit, offset, refined
 
 
 def _check_frames(frames) -> np.ndarray:
