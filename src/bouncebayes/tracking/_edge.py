@@ -331,7 +331,9 @@ def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
         return None
     best, q_best = math.inf, None
     for sigma in (0.2, 0.7, 1.3):
-        for r in r0 * _START_RADII:
+        # the radii below 0.8 r0 only with the largest blur: it is a blur that makes the
+        # coverage radius that much larger than the ball
+        for r in r0 * (_START_RADII if sigma == 1.3 else _START_RADII[_START_RADII >= 0.8]):
             q = np.array([centre[0], centre[1], r, sigma, 0.0])
             try:
                 cost = float(np.sum(_residual(q, px) ** 2))

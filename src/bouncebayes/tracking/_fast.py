@@ -230,13 +230,15 @@ def _median(a):
 
 
 @njit(cache=True)
-def ball_free_background(frames, idx, gains, bg, centre, reach, min_clear, around, half, tile):
-    """The background model with the ball left out, within ``half`` (px) of the points
-    ``around`` (``(m, 2)``, NaN rows skipped; where the fits will look): each pixel there
-    within ``reach`` (px) of the ball's centre in one of the frames ``idx`` (``centre`` their
-    tracked centres, NaN where not found) gets the median of ``frame / gain`` over the frames
-    of ``idx`` where the ball is farther than ``reach`` from it, if at least ``min_clear`` are;
-    every other pixel keeps ``bg``.
+def ball_free_background(frames, idx, gains, out, done, centre, reach, min_clear, around, half,
+                         tile):
+    """The background model ``out`` (float64, in place) with the ball left out, within ``half``
+    (px) of the points ``around`` (``(m, 2)``, NaN rows skipped; where the fits will look) and
+    not ``done`` (bool, in place: set where computed): each pixel there within ``reach`` (px)
+    of the ball's centre in one of the frames ``idx`` (``centre`` their tracked centres, NaN
+    where not found) gets the median of ``frame / gain`` over the frames of ``idx`` where the
+    ball is farther than ``reach`` from it, if at least ``min_clear`` are; every other pixel
+    keeps its value.
 
     The plain median takes in the frames the ball covers: a pixel on the ball's path is
     covered in ~1/4 of the frames of a 1.5 px-per-frame bounce, which moves the median by ~0.3
@@ -247,8 +249,7 @@ def ball_free_background(frames, idx, gains, bg, centre, reach, min_clear, aroun
     frame (contiguous rows), so the per-pixel pass over the frames reads from the cache and
     not across whole frames."""
     n = len(idx)
-    h, w = bg.shape
-    out = bg.copy()
+    h, w = out.shape
     need = np.zeros((h, w), np.bool_)
     h2 = half * half
     for k in range(around.shape[0]):
@@ -258,7 +259,7 @@ def ball_free_background(frames, idx, gains, bg, centre, reach, min_clear, aroun
         for i in range(max(0, int(math.floor(cy - half))), min(h, int(math.ceil(cy + half)) + 1)):
             for j in range(max(0, int(math.floor(cx - half))),
                            min(w, int(math.ceil(cx + half)) + 1)):
-                if (j - cx) ** 2 + (i - cy) ** 2 <= h2:
+                if not done[i, j] and (j - cx) ** 2 + (i - cy) ** 2 <= h2:
                     need[i, j] = True
     buf = np.empty(n)
     block = np.empty((n, tile, tile))
@@ -277,6 +278,7 @@ def ball_free_background(frames, idx, gains, bg, centre, reach, min_clear, aroun
                 for j in range(j0, j1):
                     if not need[i, j]:
                         continue
+                    done[i, j] = True
                     m = 0
                     for t in range(n):
                         ox, oy = centre[t, 0], centre[t, 1]
@@ -285,7 +287,6 @@ def ball_free_background(frames, idx, gains, bg, centre, reach, min_clear, aroun
                             m += 1
                     if m < n and m >= min_clear:  # the ball near the pixel in some frame
                         out[i, j] = _median(buf[:m])
-    return out
 
 
 @njit(cache=True)

@@ -155,7 +155,7 @@ TILE = 32  # px: the ball-free background is computed tile by tile (a tile's fra
 def _ball_free_background(frames, bg64, gains, centre, radius, config):
     """A function ``clean(centres)``: the background model (float64) recomputed around the
     ball's positions ``centres`` (px; within ``1.25 r + 12 px`` of them, where the edge and
-    centre fits read) from ``CLEAN_FRAMES`` evenly spaced frames in which the ball is clear of
+    centre fits read; each pixel once over the calls, the same array returned) from ``CLEAN_FRAMES`` evenly spaced frames in which the ball is clear of
     the pixel (:func:`._fast.ball_free_background`): farther than ``1.25 r + 6 px + d / 2``
     from its centre (``r`` the median coverage radius, ``d`` the largest move between frames:
     the blur's and the exposure's reach beyond the rim). Where the ball is found in fewer than
@@ -172,11 +172,13 @@ def _ball_free_background(frames, bg64, gains, centre, radius, config):
     frames = np.ascontiguousarray(frames)
     at = np.ascontiguousarray(centre[idx])
     half = 1.25 * r + 12.0
+    out, done = bg64.copy(), np.zeros(bg64.shape, bool)  # kept: each pixel computed once
 
     def clean(centres: np.ndarray) -> np.ndarray:
         around = np.ascontiguousarray(np.asarray(centres, np.float64).reshape(-1, 2))
-        return _fast.ball_free_background(frames, idx, gains, bg64, at, reach, MIN_CLEAR,
-                                          around, half, TILE)
+        _fast.ball_free_background(frames, idx, gains, out, done, at, reach, MIN_CLEAR, around,
+                                   half, TILE)
+        return out
 
     return clean
 
