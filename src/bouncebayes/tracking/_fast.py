@@ -273,7 +273,7 @@ def ball_free_background(frames, idx, gains, out, done, centre, reach, min_clear
                 g = gains[idx[t]]
                 for i in range(i0, i1):
                     for j in range(j0, j1):
-                        block[t, i - i0, j - j0] = frames[idx[t], i, j] / g
+                        block[t, i - i0, j - j0] = frames[idx[t], i, j] / g if g > 0 else np.nan
             for i in range(i0, i1):
                 for j in range(j0, j1):
                     if not need[i, j]:
@@ -282,8 +282,9 @@ def ball_free_background(frames, idx, gains, out, done, centre, reach, min_clear
                     m = 0
                     for t in range(n):
                         ox, oy = centre[t, 0], centre[t, 1]
-                        if math.isnan(ox) or (j - ox) ** 2 + (i - oy) ** 2 > r2:
-                            buf[m] = block[t, i - i0, j - j0]
+                        v = block[t, i - i0, j - j0]
+                        if (math.isnan(ox) or (j - ox) ** 2 + (i - oy) ** 2 > r2) and v == v:
+                            buf[m] = v  # (a frame of gain 0, a black frame, is left out)
                             m += 1
                     if m < n and m >= min_clear:  # the ball near the pixel in some frame
                         out[i, j] = _median(buf[:m])

@@ -147,7 +147,7 @@ MIN_CLEAR = 5  # frames clear of the ball a pixel's ball-free background needs (
 # edge model's cost falls where the background's noise is left out (the pixels the ball covers
 # do not see it), so that noise pushes the radius up along the cost's flat direction: dark
 # ball, radius 10 px, blur 1.5 px, plain wall, noise 3.3 grey levels: +5.4 % with 25 frames,
-# +0.2 % with 90 (benchmarks/tracking_accuracy.py; docs/tracking.md §1).
+# +0.5 % with 75, +0.2 % with 90 (benchmarks/tracking_accuracy.py; docs/tracking.md §3).
 CLEAN_FRAMES = 75
 TILE = 32  # px: the ball-free background is computed tile by tile (a tile's frames copied)
 
@@ -155,9 +155,10 @@ TILE = 32  # px: the ball-free background is computed tile by tile (a tile's fra
 def _ball_free_background(frames, bg64, gains, centre, radius, config):
     """A function ``clean(centres)``: the background model (float64) recomputed around the
     ball's positions ``centres`` (px; within ``1.25 r + 12 px`` of them, where the edge and
-    centre fits read; each pixel once over the calls, the same array returned) from ``CLEAN_FRAMES`` evenly spaced frames in which the ball is clear of
-    the pixel (:func:`._fast.ball_free_background`): farther than ``1.25 r + 6 px + d / 2``
-    from its centre (``r`` the median coverage radius, ``d`` the largest move between frames:
+    centre fits read; each pixel once over the calls, the same array returned) from
+    ``CLEAN_FRAMES`` evenly spaced frames in which the ball is clear of the pixel
+    (:func:`._fast.ball_free_background`): farther than ``1.25 r + 6 px + d / 2`` from its
+    centre (``r`` the median coverage radius, ``d`` the largest move between frames:
     the blur's and the exposure's reach beyond the rim). Where the ball is found in fewer than
     two frames, the background model as it is."""
     from . import _fast
