@@ -349,6 +349,33 @@ def test_overlay_is_a_png_of_the_scaled_frame(clean, tmp_path):
     assert img.shape == (scene.height * 3, scene.width * 3, 3)  # zoomed to >= 800 px wide
 
 
+def test_the_overlays_circles_have_the_radius_that_sets_the_scale(tmp_path):
+    # A blurred dark ball (render_pbr, radius 10 px, blur 1.5 px): its coverage radius is 1.2x
+    # its radius, and circles of it looked too large for the ball. The circles now have the
+    # edge model's radius, the one a --ball-diameter scale comes from: the drawn ring's pixels
+    # (the centres' green, BGR (80, 220, 80)) lie at that radius from a sampled centre.
+    # Measured: ring at 10.37 px for an edge radius of 10.39 and a coverage radius of 12.6.
+    from render_pbr import render
+
+    from bouncebayes.tracking._output import _spaced_frames
+
+    shot = pbr_shot(10.0, 1.5, 0.0, **{**DARK, "texture": 0.0})
+    frames = render(shot)
+    track = track_ball(frames)
+    zoom = 4  # 160 px wide: zoomed x4 (at most 4, towards 800 px)
+    img = cv2.imread(str(overlay_image(frames, track, tmp_path / "o.png")))
+    assert img.shape[1] == frames.shape[2] * zoom
+    green = np.all(np.abs(img.astype(int) - (80, 220, 80)) <= 40, axis=2)
+    k = int(_spaced_frames(track)[2])
+    cx, cy = (track.centre[k] + 0.5) * zoom - 0.5
+    yy, xx = np.nonzero(green)
+    d = np.hypot(xx - cx, yy - cy) / zoom
+    ring = d[(d > 0.7 * track.ball_radius) & (d < 1.15 * track.ball_radius)]
+    assert ring.size > 50
+    assert float(np.median(ring)) == pytest.approx(track.ball_radius, abs=0.3)
+    assert np.nanmedian(track.radius) > 1.15 * track.ball_radius  # the coverage radius: larger
+
+
 def run_cli(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="bouncebayes")
     add_track_subcommand(parser.add_subparsers(dest="command", required=True))

@@ -40,7 +40,9 @@ def overlay_image(frames: np.ndarray, track: Track, path: str | os.PathLike, *,
     The superposition keeps, per pixel, the sampled frame farthest from the background on the
     ball's side (frames spaced so that the copies of the ball barely overlap). Drawn on it:
     every found centre (green: centroid, orange: disk fit at the frame edge, magenta: flagged,
-    left out by the kinematics), the fitted circle of the sampled frames, the surface line and
+    left out by the kinematics), on the sampled frames a circle of the ball's radius (the edge
+    model's, which sets a ``--ball-diameter`` scale; else each frame's coverage radius, which a
+    blur inflates), the surface line and
     plane axes (red; ``x`` along travel, ``y`` outward), a scale bar, a legend of the colours,
     and the count of frames found and flagged. Written atomically.
     """
@@ -115,8 +117,9 @@ def _draw_track(out, track: Track, picks: np.ndarray, zoom: int) -> None:
             _COLOURS[int(track.method[k])]
         cv2.circle(out, _px(track.centre[k], zoom), 2 * 16, colour, -1, cv2.LINE_AA, 4)
         if k in picks:
-            cv2.circle(out, _px(track.centre[k], zoom), int(track.radius[k] * zoom * 16),
-                       colour, 1, cv2.LINE_AA, 4)
+            r = track.ball_radius if track.radius_fit is not None else track.radius[k]
+            cv2.circle(out, _px(track.centre[k], zoom), int(r * zoom * 16), colour, 1,
+                       cv2.LINE_AA, 4)
 
 
 def _draw_legend(out, track: Track) -> None:
