@@ -126,9 +126,8 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     """The edge model on up to ``MAX_FRAMES`` trusted frames spread over the video (ball wholly
     in view with a margin, both neighbours found for its velocity; ``clean(centres)`` the
     background model with the ball left out around ``centres``, ``gains`` the frames' gains),
-    with the centroids'
-    per-frame SD (``centre_sd``); and the median offset of the edge fits' centres from the
-    coverage centroids (applied to every centroid)."""
+    with the centroids' per-frame SD (``centre_sd``); and the median offset of the edge fits'
+    centres from the coverage centroids (applied to every centroid)."""
     whole = method == CENTROID
     if whole.sum() < 3:
         return None, (0.0, 0.0)
