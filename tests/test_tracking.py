@@ -737,6 +737,36 @@ def test_the_blurred_limb_is_the_gaussian_moment(z):
     assert float(np.interp(z, zs, g)) == pytest.approx(expected, rel=1e-5, abs=1e-9)
 
 
+@pytest.mark.parametrize("s", [0.3, 0.7, 1.5, 3.0])
+def test_the_shadow_columns_are_the_blurred_shadow_of_a_lambert_sphere(s):
+    from scipy.integrate import quad
+
+    from bouncebayes.tracking._edge import SHADOW_NODES, _shadow_numpy
+
+    # independent: adaptive quadrature of N(w; uu, s^2) min(0, n . L) (and n_z times it) over
+    # the depth w inside the rim, n the sphere's normal at w along the polar angle t
+    r, az, el = 10.0, 0.3, 0.5
+    lz = math.sin(el)
+    for uu in np.linspace(-3.0, 6.0, 10):
+        for t in np.linspace(az - 1.0, az + 4.0, 9):  # the lit side too (zero there)
+            got = _shadow_numpy(np.array([uu]), np.array([s]), r, np.array([math.cos(t)]),
+                                np.array([math.sin(t)]), az, el, SHADOW_NODES)[0]
+            a = math.cos(el) * math.cos(t - az)
+
+            def f(w, j, uu=uu, a=a):
+                nz = math.sqrt(max(w * (2 * r - w), 0.0)) / r
+                dens = math.exp(-0.5 * ((w - uu) / s) ** 2) / (s * math.sqrt(2 * math.pi))
+                return dens * min(0.0, a * (1 - w / r) + lz * nz) * (nz if j else 1.0)
+
+            for j in range(2):
+                expected = quad(f, 0.0, r, args=(j,), epsabs=1e-12, limit=400,
+                                points=[x for x in (uu,) if 0 < x < r])[0]
+                # the quadrature's 12 nodes and the Gaussian cut at 4 s: within 1e-4
+                assert got[j] == pytest.approx(expected, abs=1e-4)
+    assert _shadow_numpy(np.array([1.0]), np.array([s]), r, np.array([math.cos(az + 3.0)]),
+                         np.array([math.sin(az + 3.0)]), az, el, SHADOW_NODES)[0, 0] < -0.05
+
+
 def _edge_pixels(n_frames: int, seed: int = 3):
     from bouncebayes.tracking._edge import _Pixels
 
@@ -760,7 +790,10 @@ def test_the_compiled_edge_model_is_the_numpy_one():
     # and one (the centre shifted), the blur, exposure and smear across the range the fits use
     for n_frames in (2, 1):
         px = _edge_pixels(n_frames)
-        for q in ((10.0, 0.7, 0.5), (5.0, 1.5, 0.0), (15.0, 0.05, 1.0)):
+        # (r, sigma, exposure, the light's azimuth and elevation): a shadow on the rim, and
+        # none (lit from the camera)
+        for q in ((10.0, 0.7, 0.5, 2.2, 0.6), (5.0, 1.5, 0.0, -0.5, 0.2),
+                  (15.0, 0.05, 1.0, 1.0, 0.5 * math.pi)):
             ref = px
             if n_frames == 1:  # the centre moved by (0.2, -0.1) px
                 ref = px._replace(cx=px.cx + 0.2, cy=px.cy - 0.1)
@@ -777,8 +810,9 @@ def test_the_compiled_edge_model_is_the_numpy_one():
             np.testing.assert_allclose(got, y - aw @ beta, rtol=0, atol=1e-8)
 
 
-@pytest.mark.parametrize("q", [(20.3, 19.7, 10.0, 0.7, 0.5), (20.1, 19.9, 9.0, 1.5, 0.05),
-                               (20.4, 19.5, 11.0, 0.3, 1.0)])
+@pytest.mark.parametrize("q", [(20.3, 19.7, 10.0, 0.7, 0.5, 2.2, 0.6),
+                               (20.1, 19.9, 9.0, 1.5, 0.05, -0.5, 0.2),
+                               (20.4, 19.5, 11.0, 0.3, 1.0, 1.0, 0.9)])
 def test_the_edge_models_jacobian_is_the_derivative_of_its_residual(q):
     from bouncebayes.tracking._edge import _evaluate, _residual
 
@@ -789,15 +823,18 @@ def test_the_edge_models_jacobian_is_the_derivative_of_its_residual(q):
     # differences are off there and, through the linear coefficients, a little everywhere;
     # they converge to the Jacobian as the step shrinks (step 1e-5 to 1e-8: the largest
     # difference falls from ~2e-3 to ~7e-5 of the column's largest entry)
-    px = _edge_pixels(1)
-    q = np.array(q)
-    for free in (np.ones(5, bool), np.array([1, 1, 1, 0, 0], bool)):
-        res, jac = _evaluate(q, px, free, True)
+    # the grey levels: the model's at q plus noise (with random ones the linear coefficients
+    # of the two near-collinear shadow columns reach thousands and magnify the table's kinks
+    # a hundredfold), evaluated a little away from q
+    px = _model_frame(q, 3.0)
+    q = np.array(q) + np.array([0.1, -0.1, 0.2, 0.1, 0.1, 0.1, 0.1])
+    for free in (np.ones(7, bool), np.array([1, 1, 1, 0, 0, 0, 0], bool)):
+        res, jac, _ = _evaluate(q, px, free, True)
         np.testing.assert_array_equal(res, _residual(q, px))
         assert jac.shape == (px.u.size, free.sum())
         for col, k in enumerate(np.flatnonzero(free)):
-            e = np.zeros(5)
-            e[k] = (1e-7, 1e-7, 1e-7, 1e-8, 1e-5)[k]
+            e = np.zeros(7)
+            e[k] = (1e-7, 1e-7, 1e-7, 1e-8, 1e-5, 1e-7, 1e-7)[k]
             fd = (_residual(q + e, px) - _residual(q - e, px)) / (2 * e[k])
             scale = np.abs(fd).max()
             assert scale > 0.1  # every parameter moves the residual
@@ -806,19 +843,20 @@ def test_the_edge_models_jacobian_is_the_derivative_of_its_residual(q):
 
 
 def _fit_frame(px, q0, lo, hi, max_nfev=200, tol=1e-12):
-    from bouncebayes.tracking._edge import RIM_ORDER, _sqrt_table
+    from bouncebayes.tracking._edge import RIM_ORDER, _nodes, _sqrt_table
     from bouncebayes.tracking._edge_kernel import fit_frame
 
     zt, gt = _sqrt_table()
-    return fit_frame(np.array(q0, float), np.ones(5, bool), np.array(lo, float),
+    return fit_frame(np.array(q0, float), np.ones(7, bool), np.array(lo, float),
                      np.array(hi, float), 0.05, tol, tol, max_nfev, px.u, px.v, px.dir_u,
                      px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey, px.bg,
-                     float(zt[0]), float(zt[1] - zt[0]), gt, RIM_ORDER)
+                     float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER)
 
 
 def _model_frame(q, noise: float, seed: int = 5):
     """One frame's pixels whose grey levels are the edge model's at ``q = (cx, cy, r, sigma,
-    exposure)`` (NumPy reference design, chosen linear coefficients), plus Gaussian noise."""
+    exposure, az, el)`` (NumPy reference design, chosen linear coefficients), plus Gaussian
+    noise."""
     from bouncebayes.tracking._edge import _design_numpy
 
     px = _edge_pixels(1)
@@ -826,7 +864,7 @@ def _model_frame(q, noise: float, seed: int = 5):
     a, step = _design_numpy(np.array(q[2:]), px)
     beta = np.zeros(a.shape[1])
     beta[:4] = (150.0, 6.0, -4.0, 30.0)  # ball level, a shading gradient, the limb
-    beta[-3:] = (5.0, 0.5, -0.3)  # the background's offset and gradient
+    beta[-5:] = (-60.0, -20.0, 5.0, 0.5, -0.3)  # the shadow, the background's offset and gradient
     grey = px.bg * (1.0 - step) + a @ beta + np.random.default_rng(seed).normal(0, noise, step.size)
     return px._replace(grey=grey, weight=np.ones(step.size))
 
@@ -836,9 +874,9 @@ def test_the_edge_fit_finds_the_least_squares_point_within_its_bounds():
 
     from bouncebayes.tracking._edge import _evaluate
 
-    truth = (20.3, 19.7, 10.0, 0.7, 0.5)
-    start = (20.6, 19.4, 10.4, 0.9, 0.2)
-    lo, hi = (18.0, 17.0, 7.5, 0.05, 0.0), (23.0, 22.0, 13.0, 3.0, 1.0)
+    truth = (20.3, 19.7, 10.0, 0.7, 0.5, 2.2, 0.6)
+    start = (20.6, 19.4, 10.4, 0.9, 0.2, 2.0, 0.8)
+    lo, hi = (18.0, 17.0, 7.5, 0.05, 0.0, -1.0, 0.0), (23.0, 22.0, 13.0, 3.0, 1.0, 5.0, 1.57)
     # noise-free: the generating parameters (zero residual) from a start 0.4 px away
     q, res, status = _fit_frame(_model_frame(truth, 0.0), start, lo, hi)
     assert status > 0
@@ -848,18 +886,19 @@ def test_the_edge_fit_finds_the_least_squares_point_within_its_bounds():
     # analytic Jacobian) run to convergence, an independent optimiser
     px = _model_frame(truth, 3.0)
     q, res, status = _fit_frame(px, start, lo, hi)
-    ref = least_squares(lambda x: _evaluate(x, px, np.ones(5, bool), False)[0], start,
-                        jac=lambda x: _evaluate(x, px, np.ones(5, bool), True)[1],
+    ref = least_squares(lambda x: _evaluate(x, px, np.ones(7, bool), False)[0], start,
+                        jac=lambda x: _evaluate(x, px, np.ones(7, bool), True)[1],
                         bounds=(lo, hi), x_scale=0.05, xtol=1e-12, ftol=1e-12, gtol=1e-12)
-    np.testing.assert_allclose(q, ref.x, rtol=0, atol=1e-6)
+    # (3e-6: the exposure, the least determined, ends 1.4e-6 apart with the shadow's columns)
+    np.testing.assert_allclose(q, ref.x, rtol=0, atol=3e-6)
     assert float(res @ res) == pytest.approx(2 * ref.cost, rel=1e-9)
     # a bound in the way: exposure held at most 0.1 (the truth 0.5), the fit ends on it, with
     # the other parameters where SciPy puts them under the same bound
-    hi_exposure = (*hi[:4], 0.1)
-    start = (*start[:4], 0.05)
+    hi_exposure = (*hi[:4], 0.1, *hi[5:])
+    start = (*start[:4], 0.05, *start[5:])
     q, res, status = _fit_frame(px, start, lo, hi_exposure)
-    ref = least_squares(lambda x: _evaluate(x, px, np.ones(5, bool), False)[0], start,
-                        jac=lambda x: _evaluate(x, px, np.ones(5, bool), True)[1],
+    ref = least_squares(lambda x: _evaluate(x, px, np.ones(7, bool), False)[0], start,
+                        jac=lambda x: _evaluate(x, px, np.ones(7, bool), True)[1],
                         bounds=(lo, hi_exposure), x_scale=0.05, xtol=1e-12, ftol=1e-12,
                         gtol=1e-12)
     assert q[4] == pytest.approx(0.1, abs=1e-9)

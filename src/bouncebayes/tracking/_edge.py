@@ -20,11 +20,19 @@ blurred::
   ``RIM_ORDER`` in ``t``; each blurred in closed form (``n_z = sqrt(u (2r - u)) / r``:
   ``E[sqrt(u + e)_+]`` from the parabolic cylinder function, tabulated once; ``E[(u + e)_+]``
   and ``E[(u + e)^2_+]`` exact);
+- the shadow of a distant light (:func:`._edge_kernel._shadow`): Lambert shading is
+  ``max(0, n . L) = n . L - min(0, n . L)``; the harmonics hold the first part, not the
+  second, which they smoothed over on a ball lit from the side (+1.6 % in the radius at a
+  1.5 px blur). Two more columns, ``min(0, n . L)`` and ``n_z min(0, n . L)`` (Lambert
+  times linear limb darkening), blurred along the radius by quadrature, with the light's
+  azimuth and elevation two more nonlinear parameters (started from a grid after a fit
+  without them; held at the first fits' mean direction, one lamp per video). Balls under
+  ``SHADOW_MIN_RADIUS`` get none;
 - the local background level on each side (``o``): a shadow, flicker.
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
-``(c, r, sigma, a)`` the linear coefficients are solved by least squares (variable
-projection), and those five by a compiled Levenberg-Marquardt within bounds
+``(c, r, sigma, a, az, el)`` the linear coefficients are solved by least squares (variable
+projection), and those seven by a compiled Levenberg-Marquardt within bounds
 (:func:`._edge_kernel.fit_frame`, on the residual's analytic Jacobian from the same compiled
 call, :func:`._edge_kernel.varpro`) from the best point of a grid
 of radius and blur (the model has local minima where blur trades against the shading near the
@@ -52,6 +60,13 @@ MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
 XTOL = FTOL = 1e-4  # the fits' tolerances (as SciPy's least_squares') ...
 MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic change, 2-5x
 #                     the time; docs/tracking.md section 3)
+SHADOW_NODES = 12   # quadrature nodes of the shadow columns (._edge_kernel._shadow)
+# coverage radius (px) below which the model has no shadow: at 5 px the shadow's crescent is
+# a pixel or two wide and its two columns and the light's direction traded against the
+# radius (benchmarks/tracking_accuracy.py: 5 px, plain wall, blur 0.7 px: dark ball +3.4 ->
+# +6.5 %, MPEG-4 +6.6 -> +10.3 %), and the fits took twice the time (224 x 64 px: 6241 -> 4858
+# frames/s, below the target of 5000)
+SHADOW_MIN_RADIUS = 8.0
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -102,7 +117,9 @@ class RadiusFit(NamedTuple):
     ``radius_se`` (px, from the scatter of single-frame radii with the shared blur and
     shading held), blur ``sigma`` (px), ``exposure`` (fraction of the frame interval), RMS
     residual (grey levels), and the frames fitted; ``centre_sd``: the tracked centres' per-frame
-    standard deviation (px, per coordinate), set by :func:`._quality.fit_ball_radius`."""
+    standard deviation (px, per coordinate), set by :func:`._quality.fit_ball_radius`;
+    ``light``: the direction of the light whose shadow the model holds (azimuth in the image
+    from +u towards +v, elevation towards the camera; radians, pi/2: lit from the camera)."""
 
     radius: float
     radius_se: float
@@ -112,6 +129,7 @@ class RadiusFit(NamedTuple):
     frames: tuple[int, ...]
     centres: np.ndarray    # the edge fits' centres of ``frames`` (px)
     centre_sd: float = math.nan  # per-frame SD of the tracked centres, per coordinate (px)
+    light: tuple[float, float] = (math.nan, math.nan)  # the light's azimuth, elevation (rad)
 
 
 class _Pixels(NamedTuple):
@@ -143,12 +161,43 @@ def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
     return z, g
 
 
+@functools.lru_cache(maxsize=2)
+def _nodes(n: int = SHADOW_NODES) -> np.ndarray:
+    """Gauss-Legendre nodes and weights on [-1, 1], ``(2, n)``: the shadow columns'
+    quadrature (:func:`._edge_kernel._shadow`)."""
+    return np.stack(np.polynomial.legendre.leggauss(n))
+
+
+def _shadow_numpy(uu, s, r, ct, st, az: float, el: float, n: int) -> np.ndarray:
+    """The shadow columns ``(n_pix, 2)`` of :func:`._edge_kernel._shadow`, in NumPy, with
+    ``n`` quadrature nodes."""
+    x, w = _nodes(n)
+    a = math.cos(el) * (ct * math.cos(az) + st * math.sin(az))
+    lz = math.sin(el)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w_star = r * (1.0 - lz / np.sqrt(a * a + lz * lz))
+    lo = np.maximum(0.0, uu - 4.0 * s)
+    hi = np.minimum(w_star, uu + 4.0 * s)
+    live = (a < 0.0) & (hi > lo)
+    t0, t1 = np.sqrt(lo), np.sqrt(np.maximum(hi, lo))
+    tau = 0.5 * (t0 + t1)[:, None] + 0.5 * (t1 - t0)[:, None] * x
+    depth = tau * tau
+    jac = tau * (t1 - t0)[:, None] * w
+    g = jac * np.exp(-0.5 * ((depth - uu[:, None]) / s[:, None]) ** 2) / (
+        math.sqrt(2 * math.pi) * s[:, None])
+    nzw = tau * np.sqrt(np.maximum(2 * r - depth, 0.0)) / r
+    m = a[:, None] * (1.0 - depth / r) + lz * nzw
+    cols = np.stack([(g * m).sum(1), (g * m * nzw).sum(1)], axis=1)
+    return np.where(live[:, None], cols, 0.0)
+
+
 def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
-    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure)``, and the step: the
-    NumPy reference of the compiled :func:`._edge_kernel.varpro` (the tests compare them)."""
+    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure, az, el)``, and the
+    step: the NumPy reference of the compiled :func:`._edge_kernel.varpro` (the tests compare
+    them)."""
     from scipy.special import ndtr
 
-    r, sigma, exposure = q
+    r, sigma, exposure, az, el = q
     du, dv = px.u - px.cx, px.v - px.cy
     rho = np.hypot(du, dv)
     ct, st = du / np.maximum(rho, 1e-9), dv / np.maximum(rho, 1e-9)
@@ -179,7 +228,9 @@ def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
     for _ in range(3, RIM_ORDER + 1):
         cm, sm = cm * ct - sm * st, sm * ct + cm * st
         cols += [step * cm, step * sm]
-    shared = np.stack(cols, axis=1)
+    if el < 0.5 * math.pi:  # else lit from the camera: no shadow, no columns
+        cols += list(_shadow_numpy(u, s, r, ct, st, az, el, SHADOW_NODES).T)
+    shared = np.column_stack(cols)
     out = 1.0 - step
     local = np.zeros((rho.size, 3 * px.n_frames))
     rows = np.arange(rho.size)
@@ -189,23 +240,23 @@ def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
-    """Weighted residuals at ``q = (cx, cy, r, sigma, exposure)`` (one frame) or ``(r, sigma,
-    exposure)`` (the centres held), the linear coefficients solved."""
+    """Weighted residuals at ``q = (cx, cy, r, sigma, exposure, az, el)`` (one frame) or
+    ``(r, sigma, exposure, az, el)`` (the centres held), the linear coefficients solved."""
     return _evaluate(q, px, _NONE_FREE, False)[0]
 
 
-_NONE_FREE = np.zeros(5, bool)
+_NONE_FREE = np.zeros(7, bool)
 
 
 def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
-              ) -> tuple[np.ndarray, np.ndarray]:
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weighted residuals at ``q`` (as :func:`_residual`) and, with ``want_jac``, their
-    Jacobian with respect to the entries of ``(cx, cy, r, sigma, exposure)`` flagged in
-    ``free`` (analytic, :func:`._edge_kernel.varpro`: one compiled call). Raises
-    ``np.linalg.LinAlgError`` where the linear coefficients are not determined."""
+    Jacobian with respect to the entries of ``(cx, cy, r, sigma, exposure, az, el)`` flagged
+    in ``free`` (analytic, :func:`._edge_kernel.varpro`: one compiled call); and the linear
+    coefficients. Raises ``np.linalg.LinAlgError`` where those are not determined."""
     from ._edge_kernel import varpro
 
-    if q.size == 5:
+    if q.size == 7:
         cx, cy = float(q[0]), float(q[1])
         cu = cv = np.zeros(px.u.size)
         q = q[2:]
@@ -213,13 +264,14 @@ def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
         cx = cy = 0.0
         cu, cv = px.cx, px.cy
     zt, gt = _sqrt_table()
-    res, jac, ok = varpro(cx, cy, float(q[0]), float(q[1]), float(q[2]), free, px.u, px.v,
-                          cu, cv, px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames,
-                          px.weight, px.grey, px.bg, float(zt[0]), float(zt[1] - zt[0]), gt,
-                          RIM_ORDER, want_jac)
+    r, sigma, exposure, az, el = (float(x) for x in q)
+    res, jac, ok, coef = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
+                                px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight,
+                                px.grey, px.bg, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(),
+                                RIM_ORDER, want_jac)
     if not ok:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
-    return res, jac
+    return res, jac, coef
 
 
 def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels | None:
@@ -257,7 +309,9 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels |
 
 
 class EdgeFit(NamedTuple):
-    """One frame's fit: centre and radius (px), blur sigma (px), exposure, RMS residual."""
+    """One frame's fit: centre and radius (px), blur sigma (px), exposure, RMS residual, and
+    the light's direction (azimuth in the image, from +u towards +v, and elevation towards the
+    camera; radians)."""
 
     cx: float
     cy: float
@@ -265,55 +319,69 @@ class EdgeFit(NamedTuple):
     sigma: float
     exposure: float
     rms: float
+    az: float
+    el: float
+
+
+def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The compiled fit (:func:`._edge_kernel.fit_frame`) of the parameters ``free`` of ``q``
+    within ``lo, hi`` to the pixels ``px``: the parameters and residuals."""
+    from ._edge_kernel import fit_frame
+
+    zt, gt = _sqrt_table()
+    q, res, status = fit_frame(q, free, lo[free], hi[free], 0.05, XTOL, FTOL, MAX_NFEV, px.u,
+                               px.v, px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames,
+                               px.weight, px.grey, px.bg, float(zt[0]), float(zt[1] - zt[0]), gt,
+                               _nodes(), RIM_ORDER)
+    if status < 0:
+        raise np.linalg.LinAlgError("edge model: singular normal equations")
+    return q, res
 
 
 def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
-             blur: tuple[float, float] | None = None) -> EdgeFit | None:
+             held: tuple[float, float, float, float] | None = None) -> EdgeFit | None:
     """Fit the edge model to one frame around ``centre`` (px; ``bg`` the background model
-    scaled to the frame, ``velocity`` px per frame) from a first radius ``r0``; with ``blur =
-    (sigma, exposure)`` those are held. None if the pixels leave the frame or the fit fails."""
-    from ._edge_kernel import fit_frame
-
+    scaled to the frame, ``velocity`` px per frame) from a first radius ``r0``; with ``held =
+    (sigma, exposure, az, el)`` the blur, exposure and light's direction are held. None if the
+    pixels leave the frame or the fit fails."""
     speed = math.hypot(*velocity)
-    q = np.array([centre[0], centre[1], r0, 0.6, 0.0]) if blur else \
+    q = np.array([centre[0], centre[1], r0, *held]) if held else \
         _start(img, bg, centre, velocity, r0)
     if q is None:
         return None
-    if blur:
-        q[3:] = blur
-    fixed = np.zeros(5, bool) if blur is None else np.array([0, 0, 0, 1, 1], bool)
-    lo = np.array([q[0] - 2, q[1] - 2, 0.75 * q[2], 0.05, 0.0])
-    hi = np.array([q[0] + 2, q[1] + 2, 1.3 * q[2], 3.0, 1.0 if speed > 0.2 else 1e-3])
+    fixed = np.zeros(7, bool) if held is None else np.array([0, 0, 0, 1, 1, 1, 1], bool)
+    lo = np.array([q[0] - 2, q[1] - 2, 0.75 * q[2], 0.05, 0.0, -2.0 * math.pi, 0.0])
+    hi = np.array([q[0] + 2, q[1] + 2, 1.3 * q[2], 3.0, 1.0 if speed > 0.2 else 1e-3,
+                   2.0 * math.pi, 0.5 * math.pi])
+    if held is None and r0 < SHADOW_MIN_RADIUS:
+        fixed[5:] = True  # no shadow (elevation pi/2, from _start)
+    elif held is None:
+        # the light's direction: the model without a shadow fitted first, then the best of a
+        # grid of directions there (from the grid's start the fits ended 40-60 degrees from
+        # the light, in local minima, on a noisy side-lit 15 px ball blurred by 1.5 px)
+        q = _light_start(img, bg, q, velocity, lo, hi)
+        if q is None:
+            return None
     res = px = None
     for _ in range(2):  # twice: the pixels are chosen again from the first fit
         b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
         px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
         if px is None or px.u.size < 40:
             return None
-        q = np.clip(q, lo + 1e-9, hi - 1e-9)
-
-        def solve(px, q):
-            zt, gt = _sqrt_table()
-            q, res, status = fit_frame(q, ~fixed, lo[~fixed], hi[~fixed], 0.05, XTOL, FTOL,
-                                       MAX_NFEV, px.u, px.v, px.dir_u, px.dir_v, px.speed,
-                                       px.frame, px.n_frames, px.weight, px.grey, px.bg,
-                                       float(zt[0]), float(zt[1] - zt[0]), gt, RIM_ORDER)
-            if status < 0:
-                raise np.linalg.LinAlgError("edge model: singular normal equations")
-            return q, res
-
+        q = np.where(fixed, q, np.clip(q, lo + 1e-9, hi - 1e-9))  # held: as given (pi/2)
         try:
-            q, res = solve(px, q)
+            q, res = _solve(px, q, ~fixed, lo, hi)
             # again with the pixels the smooth model cannot follow left out
             scale = 1.4826 * float(np.median(np.abs(res))) + 1e-9
             px = px._replace(weight=(np.abs(res) <= 4.0 * scale).astype(np.float64))
-            q, res = solve(px, q)
+            q, res = _solve(px, q, ~fixed, lo, hi)
         except np.linalg.LinAlgError:
             return None
     assert res is not None and px is not None
     rms = math.sqrt(float(res @ res) / max(float(px.weight.sum()), 1.0))
-    cx, cy, r, sigma, exposure = (float(v) for v in q)
-    return EdgeFit(cx, cy, r, sigma, exposure, rms)
+    cx, cy, r, sigma, exposure, az, el = (float(v) for v in q)
+    return EdgeFit(cx, cy, r, sigma, exposure, rms, az, el)
 
 
 # starting radii, in units of the coverage radius: 0.8-1.25, and down to 0.55 because a
@@ -322,10 +390,48 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
 _START_RADII = np.concatenate([[0.55, 0.62, 0.69, 0.76], np.linspace(0.8, 1.25, 8)])
 
 
+# the light's directions tried at the start (radians; elevation pi/2: lit from the camera,
+# no shadow at the rim)
+_START_ELEVATIONS = (0.35, 0.75, 1.15)
+_START_AZIMUTHS = np.radians(np.arange(-180.0, 180.0, 45.0))
+_NO_SHADOW = 0.5 * math.pi
+
+
+def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
+    """``q`` with the centre, radius, blur and exposure fitted without a shadow, and the
+    light's direction the best of ``_START_AZIMUTHS`` x ``_START_ELEVATIONS`` there (or none,
+    elevation pi/2)."""
+    speed = math.hypot(*velocity)
+    b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
+    px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
+    if px is None or px.u.size < 40:
+        return None
+    free = np.array([1, 1, 1, 1, 1, 0, 0], bool)
+    q = np.clip(q, lo + 1e-9, hi - 1e-9)
+    q[6] = _NO_SHADOW
+    try:
+        q = _solve(px, q, free, lo, hi)[0]
+    except np.linalg.LinAlgError:
+        return None
+    best, q_lit = math.inf, q.copy()
+    for az in _START_AZIMUTHS:
+        for el in (*_START_ELEVATIONS, _NO_SHADOW):
+            q[5:] = az, el
+            try:
+                cost = float(np.sum(_residual(q, px) ** 2))
+            except np.linalg.LinAlgError:
+                continue
+            if cost < best:
+                best, q_lit = cost, q.copy()
+    if q_lit[6] == _NO_SHADOW:  # from there no step would find a shadow: start just off it
+        q_lit[6] = _START_ELEVATIONS[-1]
+    return q_lit
+
+
 def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
-    """The best starting ``(cx, cy, r, sigma, exposure)`` on a grid of radius, blur and
-    exposure (centre held): the edge model has local minima where a blur trades against the
-    shading near the rim."""
+    """The best starting ``(cx, cy, r, sigma, exposure, az, el)`` on a grid of radius and
+    blur (centre held, no shadow: the edge model has local minima where a blur trades
+    against the shading near the rim)."""
     px = _pixels(img, bg, centre, velocity, 1.25 * r0, 1.25 * r0, 7.0)
     if px is None or px.u.size < 40:
         return None
@@ -336,7 +442,7 @@ def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
         # time but moves a side-lit 5 px ball's centres by 0.05 px (tests/test_tracking.py::
         # test_a_small_side_lit_balls_centres_are_not_pulled_to_the_lit_side: 0.080 -> 0.131)
         for r in r0 * _START_RADII:
-            q = np.array([centre[0], centre[1], r, sigma, 0.0])
+            q = np.array([centre[0], centre[1], r, sigma, 0.0, 0.0, _NO_SHADOW])
             try:
                 cost = float(np.sum(_residual(q, px) ** 2))
             except np.linalg.LinAlgError:
@@ -361,7 +467,11 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
-    blur = (float(np.median([f.sigma for f in ok])), float(np.median([f.exposure for f in ok])))
+    # one lens, one exposure, one lamp: the light's azimuth is the in-plane light's mean
+    # direction (a frame lit from the camera has none), its elevation the median
+    lit = sum(math.cos(f.el) * complex(math.cos(f.az), math.sin(f.az)) for f in ok)
+    held = (float(np.median([f.sigma for f in ok])), float(np.median([f.exposure for f in ok])),
+            math.atan2(lit.imag, lit.real), float(np.median([f.el for f in ok])))
     r1 = float(np.median([f.r for f in ok]))
     second: list[EdgeFit | None] = []
     for i, (img, bg, c, v) in enumerate(args):
@@ -370,7 +480,7 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
             second.append(None)
         else:
             second.append(fit_edge(img, bg, c if f is None else (f.cx, f.cy), v, r1,
-                                   blur=blur))
+                                   held=held))
     fits = [f for f in second if f is not None]
     if len(fits) < 3:
         return None
@@ -379,6 +489,6 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     # standard error of a median: 1.2533 sd / sqrt(n), the sd from the MAD (robust)
     se = 1.2533 * 1.4826 * float(np.median(np.abs(radii - med))) / math.sqrt(len(radii))
     used = [i for i, f in enumerate(second) if f is not None]
-    return RadiusFit(med, se, blur[0], blur[1], float(np.median([f.rms for f in fits])),
-                     tuple(used), np.array([[f.cx, f.cy] for f in fits]))
+    return RadiusFit(med, se, held[0], held[1], float(np.median([f.rms for f in fits])),
+                     tuple(used), np.array([[f.cx, f.cy] for f in fits]), light=held[2:])
 

@@ -22,11 +22,96 @@ from numba import njit
 
 _SQRT2 = math.sqrt(2.0)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
+_HALF_PI = 0.5 * math.pi
+_CUT = 4.0  # the shadow columns' Gaussian is integrated over +-_CUT SDs (mass left: 6e-5)
 
 
 @njit(cache=True)
-def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, z0, dz, table, rim_order, want,
-         row, part, chain, ang):
+def _shadow(uu, s, r, ct, st, az_c, az_s, el, nodes, cp):
+    """The two shadow columns of a pixel at depth ``uu`` inside the rim, radial blur ``s``
+    and polar angle ``t`` (``ct, st``), lit from the distant direction of azimuth ``az``
+    (image plane, ``az_c, az_s`` its cosine and sine) and elevation ``el`` towards the camera,
+    into ``cp[j] = (C_j, dC_j/duu, dC_j/ds, dC_j/dr, dC_j/dt, dC_j/daz, dC_j/del)``.
+
+    Lambert shading ``max(0, n . L) = n . L - min(0, n . L)``: the linear part is in the
+    spherical harmonics; the shadowed part ``m = min(0, n . L)`` is not (the harmonics up to
+    order 2 smooth it over, which biased the radius of a ball lit from the side by +1.6 %
+    under a 1.5 px blur, docs/tracking.md §3). At depth ``w`` inside the rim ``n . L =
+    A (1 - w/r) + L_z n_z(w)``, ``A = cos(el) cos(t - az)``, ``n_z = sqrt(w (2r - w)) / r``;
+    for ``L_z >= 0`` it is negative only on the side away from the light (``A < 0``) and
+    down to the terminator ``w* = r (1 - L_z / sqrt(A^2 + L_z^2))``. The columns are ``m``
+    and ``n_z m`` (linear limb darkening times Lambert), blurred along the radius as the
+    others: ``C = int_0^w* N(w; uu, s^2) m(w) dw``, by Gauss-Legendre quadrature in
+    ``tau = sqrt(w)`` (which takes away the ``sqrt`` of ``n_z`` at the rim) over the
+    Gaussian's +-4 s (``_CUT``). ``m(w*) = 0`` so the limit's motion adds nothing to the derivatives."""
+    for j in range(2):
+        for k in range(7):
+            cp[j, k] = 0.0
+    cd = ct * az_c + st * az_s            # cos(t - az)
+    lxy = math.cos(el)
+    lz = math.sin(el)
+    a = lxy * cd
+    if not a < 0.0:
+        return
+    w_star = r * (1.0 - lz / math.sqrt(a * a + lz * lz))
+    lo = max(0.0, uu - _CUT * s)
+    hi = min(w_star, uu + _CUT * s)
+    if not hi > lo:
+        return
+    t0 = math.sqrt(lo)
+    t1 = math.sqrt(hi)
+    mid = 0.5 * (t0 + t1)
+    half = 0.5 * (t1 - t0)
+    a_t = lxy * (ct * az_s - st * az_c)   # dA/dt = cos(el) sin(az - t) = -dA/daz
+    a_el = -lz * cd
+    inv_s = 1.0 / s
+    for k in range(nodes.shape[1]):
+        tau = mid + half * nodes[0, k]
+        w = tau * tau
+        jac = 2.0 * tau * half * nodes[1, k]
+        x = (w - uu) * inv_s
+        g = jac * math.exp(-0.5 * x * x) * _INV_SQRT_2PI * inv_s
+        rest = max(2.0 * r - w, 0.0)
+        root = math.sqrt(rest)
+        nzw = tau * root / r
+        nz_r = tau * (w - r) / (r * r * root) if root > 0.0 else 0.0
+        rho = 1.0 - w / r
+        m = a * rho + lz * nzw
+        m_r = a * w / (r * r) + lz * nz_r
+        m_t = a_t * rho
+        m_el = a_el * rho + lxy * nzw
+        g_uu = g * x * inv_s
+        g_s = g * (x * x - 1.0) * inv_s
+        for j in range(2):
+            f = m if j == 0 else m * nzw
+            f_r = m_r if j == 0 else m_r * nzw + m * nz_r
+            f_t = m_t if j == 0 else m_t * nzw
+            f_el = m_el if j == 0 else m_el * nzw
+            cp[j, 0] += g * f
+            cp[j, 1] += g_uu * f
+            cp[j, 2] += g_s * f
+            cp[j, 3] += g * f_r
+            cp[j, 4] += g * f_t
+            cp[j, 5] -= g * f_t
+            cp[j, 6] += g * f_el
+    # the Gaussian's cut at uu -+ CUT s moves with uu and s: the ends' terms (the derivatives
+    # are then those of the integral computed, which the fits' Jacobian must be)
+    for end in range(2):
+        w = lo if end == 0 else hi
+        if (w == uu - _CUT * s) if end == 0 else (w == uu + _CUT * s):
+            sign = -1.0 if end == 0 else 1.0
+            nzw = math.sqrt(max(w * (2.0 * r - w), 0.0)) / r
+            f = math.exp(-0.5 * _CUT * _CUT) * _INV_SQRT_2PI * inv_s * (a * (1.0 - w / r)
+                                                                       + lz * nzw)
+            for j in range(2):
+                fj = f if j == 0 else f * nzw
+                cp[j, 1] += sign * fj
+                cp[j, 2] += _CUT * fj
+
+
+@njit(cache=True)
+def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz, table,
+         nodes, rim_order, want, row, part, chain, ang, cp):
     """One pixel's design row (unweighted: the shared columns, then the pixel's frame's three
     local ones) at offset ``(du, dv)`` from the centre, into ``row`` (the arithmetic of
     ``_edge._design_numpy``); returns the step. With ``want``, also what :func:`_drow` needs
@@ -103,6 +188,11 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, z0, dz, table, rim_ord
         row[col] = step * cm
         row[col + 1] = step * sm
         col += 2
+    if el < _HALF_PI:  # else lit from the camera: no shadow, no columns
+        _shadow(uu, s, r, ct, st, az_c, az_s, el, nodes, cp)
+        row[col] = cp[0, 0]
+        row[col + 1] = cp[1, 0]
+        col += 2
     out = 1.0 - step
     row[col] = out
     row[col + 1] = out * ct
@@ -145,6 +235,9 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, z0, dz, table, rim_ord
     # (d rho/dcx = -cos t, dt/dcx = sin t / rho), the blur and exposure the variances
     inv = 1.0 / rr if rho > 1e-9 else 0.0
     sin_v = st * dir_u - ct * dir_v  # sin(t - t_v)
+    for k in range(5, 7):  # the light's direction moves only the shadow columns (cp)
+        for j in range(4):
+            chain[k, j] = 0.0
     for k in range(5):
         d_rho = -ct if k == 0 else (-st if k == 1 else 0.0)
         d_t = st * inv if k == 0 else (-ct * inv if k == 1 else 0.0)
@@ -162,7 +255,7 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, z0, dz, table, rim_ord
 
 
 @njit(cache=True)
-def _drow(part, chain, ang, k, rim_order, drow):
+def _drow(part, chain, ang, cp, k, rim_order, lit, drow):
     """The derivative of the row of :func:`_row` with respect to parameter ``k``, into
     ``drow``: each column's radial factor's total derivative times its angular factor, plus
     the radial factor times the angular factor's derivative (``d cos(m t) = -m sin(m t) dt``)."""
@@ -190,6 +283,11 @@ def _drow(part, chain, ang, k, rim_order, drow):
     for m in range(3, rim_order + 1):
         drow[col] = d_step * ang[m, 0] - m * step * ang[m, 1] * d_t
         drow[col + 1] = d_step * ang[m, 1] + m * step * ang[m, 0] * d_t
+        col += 2
+    if lit:  # the shadow columns: through (uu, s, r, t), and the light's direction
+        for j in range(2):
+            drow[col + j] = (cp[j, 1] * d_uu + cp[j, 2] * d_s + cp[j, 3] * d_r + cp[j, 4] * d_t
+                             + (cp[j, 5] if k == 5 else (cp[j, 6] if k == 6 else 0.0)))
         col += 2
     drow[col] = -d_step
     drow[col + 1] = -d_step * ct - out * st * d_t
@@ -235,8 +333,8 @@ def _cho_solve(low, b):
 
 
 @njit(cache=True)
-def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, frame,
-           n_frames, weight, grey, bg, z0, dz, table, rim_order, want_jac):
+def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v, speed, frame,
+           n_frames, weight, grey, bg, z0, dz, table, nodes, rim_order, want_jac):
     """The edge model's weighted residual at ``(cx, cy, r, sigma, exposure)``, the linear
     coefficients solved (variable projection), and its Jacobian with respect to the
     parameters flagged in ``free`` (``(n_pix, n_free)``; empty unless ``want_jac``), in one
@@ -249,18 +347,23 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
     and ``dy`` from :func:`_row` and :func:`_drow`. ``ok`` is False where the normal
     equations are singular."""
     n = u.size
-    n_shared = 11 + 2 * max(rim_order - 2, 0)
+    lit = el < _HALF_PI  # a shadow on the rim: its two columns
+    n_shared = 11 + 2 * max(rim_order - 2, 0) + (2 if lit else 0)
     m = n_shared + 3 * n_frames
     a = np.zeros((n, m))
     y = np.empty(n)
     row = np.empty(n_shared + 3)
     drow = np.empty(n_shared + 3)
     part = np.empty((5, 4))
-    chain = np.empty((5, 4))
+    chain = np.empty((7, 4))
     ang = np.empty((max(rim_order, 2) + 1, 2))
+    cp = np.empty((2, 7))
+    az_c = math.cos(az)
+    az_s = math.sin(az)
     for i in range(n):
         step = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r,
-                    sigma, exposure, z0, dz, table, rim_order, False, row, part, chain, ang)
+                    sigma, exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order, False,
+                    row, part, chain, ang, cp)
         w = weight[i]
         for c in range(n_shared):
             a[i, c] = row[c] * w
@@ -285,12 +388,12 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
     for c in range(m):
         low[c, c] += ridge
     n_free = 0
-    for k in range(5):
+    for k in range(7):
         n_free += 1 if free[k] else 0
     res = np.empty(n)
     jac = np.empty((n, n_free if want_jac else 0))
     if not _cholesky(low):
-        return res, jac, False
+        return res, jac, False, aty
     beta = aty
     _cho_solve(low, beta)
     for i in range(n):
@@ -299,20 +402,21 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
             t -= a[i, c] * beta[c]
         res[i] = t
     if not want_jac:
-        return res, jac, True
+        return res, jac, True, beta
     g = np.empty((n, n_free))
     h = np.zeros((m, n_free))
     for i in range(n):
         _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r, sigma,
-             exposure, z0, dz, table, rim_order, True, row, part, chain, ang)
+             exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order, True, row, part, chain,
+             ang, cp)
         w = weight[i]
         wr = w * res[i]
         j = n_shared + 3 * frame[i]
         col = 0
-        for k in range(5):
+        for k in range(7):
             if not free[k]:
                 continue
-            _drow(part, chain, ang, k, rim_order, drow)
+            _drow(part, chain, ang, cp, k, rim_order, lit, drow)
             t = bg[i] * drow[0]  # dy: y = (grey - bg (1 - step)) w
             for c in range(n_shared):
                 t -= drow[c] * beta[c]
@@ -341,19 +445,19 @@ def varpro(cx, cy, r, sigma, exposure, free, u, v, cu, cv, dir_u, dir_v, speed, 
             for c in range(j, j + 3):
                 t -= a[i, c] * sol[c, col]
             jac[i, col] = t
-    return res, jac, True
+    return res, jac, True, beta
 
 
 @njit(cache=True)
 def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0,
-                    dz, table, rim_order):
+                    dz, table, nodes, rim_order):
     """:func:`varpro` at ``q = (cx, cy, r, sigma, exposure)`` of one frame's pixels, with the
     Jacobian; ``ok`` False where the normal equations are singular or a residual is not
     finite."""
     zero = np.zeros(u.size)
-    res, jac, ok = varpro(q[0], q[1], q[2], q[3], q[4], free, u, v, zero, zero, dir_u, dir_v,
-                          speed, frame, n_frames, weight, grey, bg, z0, dz, table, rim_order,
-                          True)
+    res, jac, ok, _ = varpro(q[0], q[1], q[2], q[3], q[4], q[5], q[6], free, u, v, zero,
+                             zero, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0,
+                             dz, table, nodes, rim_order, True)
     if ok:
         for i in range(res.size):
             if not math.isfinite(res[i]):
@@ -363,7 +467,7 @@ def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
 
 @njit(cache=True)
 def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_v, speed,
-              frame, n_frames, weight, grey, bg, z0, dz, table, rim_order):
+              frame, n_frames, weight, grey, bg, z0, dz, table, nodes, rim_order):
     """Least squares of the edge model of one frame over the parameters of ``q0 = (cx, cy, r,
     sigma, exposure)`` flagged in ``free``, within ``lo <= x <= hi`` (the free ones):
     Levenberg-Marquardt on the analytic Jacobian of :func:`varpro`, in the variables
@@ -384,16 +488,16 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
     the per-frame work (~90 ms a video; docs/tracking.md §4)."""
     q = q0.copy()
     nf = 0
-    for k in range(5):
+    for k in range(7):
         nf += 1 if free[k] else 0
     idx = np.empty(nf, np.int64)
     j = 0
-    for k in range(5):
+    for k in range(7):
         if free[k]:
             idx[j] = k
             j += 1
     res, jac, ok = _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
-                                   grey, bg, z0, dz, table, rim_order)
+                                   grey, bg, z0, dz, table, nodes, rim_order)
     if not ok:
         return q, res, -1
     nfev = 1
@@ -405,7 +509,7 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
     mat = np.empty((nf, nf))
     step = np.empty(nf)
     held = np.zeros(nf, np.bool_)
-    trial = np.empty(5)
+    trial = np.empty(7)
     status = 0
     fresh = True  # jtj and grad are those of the current point
     while nfev < max_nfev:
@@ -455,7 +559,7 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
         # the step clipped to the bounds, back in the scaled variables
         xnorm = 0.0
         snorm = 0.0
-        for k in range(5):
+        for k in range(7):
             trial[k] = q[k]
         for a in range(nf):
             k = idx[a]
@@ -473,12 +577,12 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
         small = math.sqrt(snorm) < xtol * (xtol + math.sqrt(xnorm))
         res_t, jac_t, ok = _evaluate_frame(trial, free, u, v, dir_u, dir_v, speed, frame,
                                            n_frames, weight, grey, bg, z0, dz, table,
-                                           rim_order)
+                                           nodes, rim_order)
         nfev += 1
         actual = cost - 0.5 * np.dot(res_t, res_t) if ok else -math.inf
         if predicted > 0.0 and actual > 1e-4 * predicted:
             rho = actual / predicted
-            for k in range(5):
+            for k in range(7):
                 q[k] = trial[k]
             res, jac = res_t, jac_t
             lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
