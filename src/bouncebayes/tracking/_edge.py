@@ -67,6 +67,15 @@ SHADOW_NODES = 12   # quadrature nodes of the shadow columns (._edge_kernel._sha
 # +6.5 %, MPEG-4 +6.6 -> +10.3 %), and the fits took twice the time (224 x 64 px: 6241 -> 4858
 # frames/s, below the target of 5000)
 SHADOW_MIN_RADIUS = 8.0
+# ... and where it lowers a frame's cost by less than SHADOW_MIN_GAIN times the residual
+# variance at the start (fitted without; a chi-square of ~4 degrees of freedom, p ~ 0.005),
+# and in a video where most frames have none. Measured (benchmarks/tracking_accuracy.py
+# scenes, 5 frames each): side-lit 15 px, blur 1.5 px, plain wall 19-45; side-lit 10 px,
+# blur 0.7 px 23-39; glossy 10 px 15-35; but a dark ball (weak shading) 1-12 and a ball lit
+# from the camera (no terminator: the columns fit the wall's texture) 3-13, up to 30 at a
+# 1.5 px blur, where forced the shadow traded against the radius (lit from the camera, 10 px,
+# blur 0.7 px, plain wall: +2.9 %; dark, blur 1.5 px: -1.4 -> -2.4 %)
+SHADOW_MIN_GAIN = 15.0
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -171,13 +180,15 @@ def _nodes(n: int = SHADOW_NODES) -> np.ndarray:
 def _shadow_numpy(uu, s, r, ct, st, az: float, el: float, n: int) -> np.ndarray:
     """The shadow columns ``(n_pix, 2)`` of :func:`._edge_kernel._shadow`, in NumPy, with
     ``n`` quadrature nodes."""
+    from ._edge_kernel import _CUT
+
     x, w = _nodes(n)
     a = math.cos(el) * (ct * math.cos(az) + st * math.sin(az))
     lz = math.sin(el)
     with np.errstate(divide="ignore", invalid="ignore"):
         w_star = r * (1.0 - lz / np.sqrt(a * a + lz * lz))
-    lo = np.maximum(0.0, uu - 4.0 * s)
-    hi = np.minimum(w_star, uu + 4.0 * s)
+    lo = np.maximum(0.0, uu - _CUT * s)
+    hi = np.minimum(w_star, uu + _CUT * s)
     live = (a < 0.0) & (hi > lo)
     t0, t1 = np.sqrt(lo), np.sqrt(np.maximum(hi, lo))
     tau = 0.5 * (t0 + t1)[:, None] + 0.5 * (t1 - t0)[:, None] * x
@@ -249,11 +260,11 @@ _NONE_FREE = np.zeros(7, bool)
 
 
 def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              ) -> tuple[np.ndarray, np.ndarray]:
     """Weighted residuals at ``q`` (as :func:`_residual`) and, with ``want_jac``, their
     Jacobian with respect to the entries of ``(cx, cy, r, sigma, exposure, az, el)`` flagged
-    in ``free`` (analytic, :func:`._edge_kernel.varpro`: one compiled call); and the linear
-    coefficients. Raises ``np.linalg.LinAlgError`` where those are not determined."""
+    in ``free`` (analytic, :func:`._edge_kernel.varpro`: one compiled call). Raises
+    ``np.linalg.LinAlgError`` where the linear coefficients are not determined."""
     from ._edge_kernel import varpro
 
     if q.size == 7:
@@ -265,13 +276,13 @@ def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
         cu, cv = px.cx, px.cy
     zt, gt = _sqrt_table()
     r, sigma, exposure, az, el = (float(x) for x in q)
-    res, jac, ok, coef = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
-                                px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight,
-                                px.grey, px.bg, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(),
-                                RIM_ORDER, want_jac)
+    res, jac, ok = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
+                          px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey,
+                          px.bg, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER,
+                          want_jac)
     if not ok:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
-    return res, jac, coef
+    return res, jac
 
 
 def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels | None:
@@ -360,9 +371,14 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
         # the light's direction: the model without a shadow fitted first, then the best of a
         # grid of directions there (from the grid's start the fits ended 40-60 degrees from
         # the light, in local minima, on a noisy side-lit 15 px ball blurred by 1.5 px)
-        q = _light_start(img, bg, q, velocity, lo, hi)
-        if q is None:
+        lit = _light_start(img, bg, q, velocity, lo, hi)
+        if lit is None:
             return None
+        fixed[5:] = lit[6] == _NO_SHADOW
+        # without a shadow, from the grid's start as before (where the cost is flat in the
+        # radius the fit's path moves it: a ball lit from the camera, 10 px, blur 0.7 px:
+        # -0.1 and -0.3 % from the grid, -0.6 and -0.8 % from the first fit without a shadow)
+        q = q if fixed[5] else lit
     res = px = None
     for _ in range(2):  # twice: the pixels are chosen again from the first fit
         b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
@@ -399,8 +415,8 @@ _NO_SHADOW = 0.5 * math.pi
 
 def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
     """``q`` with the centre, radius, blur and exposure fitted without a shadow, and the
-    light's direction the best of ``_START_AZIMUTHS`` x ``_START_ELEVATIONS`` there (or none,
-    elevation pi/2)."""
+    light's direction the best of ``_START_AZIMUTHS`` x ``_START_ELEVATIONS`` there, or none
+    (elevation pi/2) where that is not better by ``SHADOW_MIN_GAIN``."""
     speed = math.hypot(*velocity)
     b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
     px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
@@ -414,8 +430,13 @@ def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
     except np.linalg.LinAlgError:
         return None
     best, q_lit = math.inf, q.copy()
+    q[6] = _NO_SHADOW
+    try:
+        none = float(np.sum(_residual(q, px) ** 2))
+    except np.linalg.LinAlgError:
+        return None
     for az in _START_AZIMUTHS:
-        for el in (*_START_ELEVATIONS, _NO_SHADOW):
+        for el in _START_ELEVATIONS:
             q[5:] = az, el
             try:
                 cost = float(np.sum(_residual(q, px) ** 2))
@@ -423,8 +444,11 @@ def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
                 continue
             if cost < best:
                 best, q_lit = cost, q.copy()
-    if q_lit[6] == _NO_SHADOW:  # from there no step would find a shadow: start just off it
-        q_lit[6] = _START_ELEVATIONS[-1]
+    # the shadow only where the pixels call for it: its fall in the cost, in units of the
+    # residual variance, at least SHADOW_MIN_GAIN (else its parameters only trade against the
+    # radius)
+    if not (none - best) * px.u.size > SHADOW_MIN_GAIN * best:
+        q_lit[5:] = 0.0, _NO_SHADOW
     return q_lit
 
 
@@ -467,12 +491,17 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
-    # one lens, one exposure, one lamp: the light's azimuth is the in-plane light's mean
-    # direction (a frame lit from the camera has none), its elevation the median
-    lit = sum(math.cos(f.el) * complex(math.cos(f.az), math.sin(f.az)) for f in ok)
-    held = (float(np.median([f.sigma for f in ok])), float(np.median([f.exposure for f in ok])),
-            math.atan2(lit.imag, lit.real), float(np.median([f.el for f in ok])))
-    r1 = float(np.median([f.r for f in ok]))
+    # one lens, one exposure, one lamp: a shadow if most of the frames found one, the light's
+    # azimuth then their mean direction and its elevation their median; the blur, exposure
+    # and starting radius from the frames that agree
+    shadow = [f for f in ok if f.el < _NO_SHADOW]
+    agree = shadow if 2 * len(shadow) > len(ok) else [f for f in ok if f.el >= _NO_SHADOW]
+    lit = sum(math.cos(f.el) * complex(math.cos(f.az), math.sin(f.az)) for f in shadow)
+    held = (float(np.median([f.sigma for f in agree])),
+            float(np.median([f.exposure for f in agree])),
+            math.atan2(lit.imag, lit.real) if agree is shadow else 0.0,
+            float(np.median([f.el for f in shadow])) if agree is shadow else _NO_SHADOW)
+    r1 = float(np.median([f.r for f in agree]))
     second: list[EdgeFit | None] = []
     for i, (img, bg, c, v) in enumerate(args):
         f = first.get(i)

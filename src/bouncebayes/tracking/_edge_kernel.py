@@ -393,7 +393,7 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     res = np.empty(n)
     jac = np.empty((n, n_free if want_jac else 0))
     if not _cholesky(low):
-        return res, jac, False, aty
+        return res, jac, False
     beta = aty
     _cho_solve(low, beta)
     for i in range(n):
@@ -402,7 +402,7 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
             t -= a[i, c] * beta[c]
         res[i] = t
     if not want_jac:
-        return res, jac, True, beta
+        return res, jac, True
     g = np.empty((n, n_free))
     h = np.zeros((m, n_free))
     for i in range(n):
@@ -445,7 +445,7 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
             for c in range(j, j + 3):
                 t -= a[i, c] * sol[c, col]
             jac[i, col] = t
-    return res, jac, True, beta
+    return res, jac, True
 
 
 @njit(cache=True)
@@ -455,9 +455,9 @@ def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
     Jacobian; ``ok`` False where the normal equations are singular or a residual is not
     finite."""
     zero = np.zeros(u.size)
-    res, jac, ok, _ = varpro(q[0], q[1], q[2], q[3], q[4], q[5], q[6], free, u, v, zero,
-                             zero, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0,
-                             dz, table, nodes, rim_order, True)
+    res, jac, ok = varpro(q[0], q[1], q[2], q[3], q[4], q[5], q[6], free, u, v, zero, zero,
+                          dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0, dz, table,
+                          nodes, rim_order, True)
     if ok:
         for i in range(res.size):
             if not math.isfinite(res[i]):
