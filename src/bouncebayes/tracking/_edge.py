@@ -27,7 +27,9 @@ blurred::
   times linear limb darkening), blurred along the radius by quadrature, with the light's
   azimuth and elevation two more nonlinear parameters (started from a grid after a fit
   without them; held at the first fits' mean direction, one lamp per video). Balls under
-  ``SHADOW_MIN_RADIUS`` get none;
+  ``SHADOW_MIN_RADIUS`` get none, nor frames where it lowers the cost by less than
+  ``SHADOW_MIN_GAIN`` residual variances or the blur exceeds ``SHADOW_MAX_BLUR`` of the
+  radius, nor videos where most first fits have none;
 - the local background level on each side (``o``): a shadow, flicker.
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
@@ -76,6 +78,11 @@ SHADOW_MIN_RADIUS = 8.0
 # 1.5 px blur, where forced the shadow traded against the radius (lit from the camera, 10 px,
 # blur 0.7 px, plain wall: +2.9 %; dark, blur 1.5 px: -1.4 -> -2.4 %)
 SHADOW_MIN_GAIN = 15.0
+# ... and where the fit without it finds a blur above SHADOW_MAX_BLUR of the radius: the
+# shadow's crescent is then within a blur or two of the rim and its columns trade against the
+# blurred step (radius 10 px, blur 1.5 px, plain wall: side-lit -1.35 -> +2.47 %, glossy -1.08
+# -> -2.92 %; at 15 px, blur 1.5 px, fitted ~0.10 r, it helped: +2.5 -> +1.6 %, +3.6 -> +1.4 %)
+SHADOW_MAX_BLUR = 0.125
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -416,7 +423,8 @@ _NO_SHADOW = 0.5 * math.pi
 def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
     """``q`` with the centre, radius, blur and exposure fitted without a shadow, and the
     light's direction the best of ``_START_AZIMUTHS`` x ``_START_ELEVATIONS`` there, or none
-    (elevation pi/2) where that is not better by ``SHADOW_MIN_GAIN``."""
+    (elevation pi/2) where that is not better by ``SHADOW_MIN_GAIN`` or the blur is above
+    ``SHADOW_MAX_BLUR`` of the radius."""
     speed = math.hypot(*velocity)
     b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
     px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
@@ -429,6 +437,9 @@ def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
         q = _solve(px, q, free, lo, hi)[0]
     except np.linalg.LinAlgError:
         return None
+    if q[3] > SHADOW_MAX_BLUR * q[2]:  # blurred for its size: no shadow
+        q[5:] = 0.0, _NO_SHADOW
+        return q
     best, q_lit = math.inf, q.copy()
     q[6] = _NO_SHADOW
     try:
