@@ -404,6 +404,7 @@ def test_track_command_writes_trajectory_overlay_and_record(noisy, tmp_path, cap
     assert len(record["per_frame"]["u_px"]) == 100
     assert record["provenance"]["bouncebayes_version"] == bb.__version__
     assert 0 < record["ball"]["centre_sd_px"] < 0.5  # the centres' stated per-frame SD
+    assert 0 <= record["ball"]["light_elevation_deg"] <= 90  # the edge model's light
     assert cv2.imread(str(out / "throw1.overlay.png")) is not None
 
 
