@@ -26,10 +26,10 @@ blurred::
   1.5 px blur). Two more columns, ``min(0, n . L)`` and ``n_z min(0, n . L)`` (Lambert
   times linear limb darkening), blurred along the radius by quadrature, with the light's
   azimuth and elevation two more nonlinear parameters (started from a grid after a fit
-  without them; held at the first fits' mean direction, one lamp per video). Balls under
-  ``SHADOW_MIN_RADIUS`` get none, nor frames where it lowers the cost by less than
-  ``SHADOW_MIN_GAIN`` residual variances or the blur exceeds ``SHADOW_MAX_BLUR`` of the
-  radius, nor videos where most first fits have none;
+  without them; held at the first fits' direction that fits their frames best together,
+  one lamp per video). Balls under ``SHADOW_MIN_RADIUS`` get none, nor frames where it
+  lowers the cost by less than ``SHADOW_MIN_GAIN`` residual variances or the blur exceeds
+  ``SHADOW_MAX_BLUR`` of the radius, nor videos where most first fits have none;
 - the local background level on each side (``o``): a shadow, flicker.
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
@@ -535,19 +535,20 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
     ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
-    frame with the blur and exposure held at those fits' medians; the median radius and its
-    standard error. None if fewer than 3 frames could be fitted."""
+    frame with the blur, exposure and light held at those fits' (medians; the light: see
+    below); the median radius and its standard error. None if fewer than 3 frames could be
+    fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
-    # the free fits (five parameters, ~3/4 of the cost) on up to FIRST_FRAMES of the frames,
-    # spread: they only set the shared blur and exposure and the starting radius
+    # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
+    # frames, spread: they only set the shared blur, exposure, light and the starting radius
     pick = np.unique(np.linspace(0, len(args) - 1, min(FIRST_FRAMES, len(args))).round())
     first = {int(i): fit_edge(*args[int(i)], r0) for i in pick}
     ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
-    # one lens, one exposure, one lamp: a shadow if most of the frames found one, the light's
-    # azimuth then their mean direction and its elevation their median; the blur, exposure
-    # and starting radius from the frames that agree
+    # one lens, one exposure, one lamp: a shadow if most of the frames found one, the light
+    # then the one of their directions that fits their frames best together, and those frames
+    # fitted again under it; the blur, exposure and starting radius from the frames that agree
     shadow = [f for f in ok if f.el < _NO_SHADOW]
     agree = shadow if 2 * len(shadow) > len(ok) else [f for f in ok if f.el >= _NO_SHADOW]
     light = _shared_light([args[i] for i, f in first.items() if f in shadow], shadow) \
