@@ -115,8 +115,6 @@ def test_background_model_is_numpys_median(n):
     np.testing.assert_array_equal(background_model(frames, n_frames=n), expected)
 
 
-
-
 def test_the_fits_background_leaves_the_ball_out():
     # A dark 10 px ball on a plain noisy wall (render_pbr: the wall is exactly 170 grey levels
     # there, the truth). The per-pixel median takes in the frames the ball covers, so along its

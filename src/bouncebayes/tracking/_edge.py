@@ -341,6 +341,13 @@ class EdgeFit(NamedTuple):
     el: float
 
 
+def _rim_pixels(img, bg, q: np.ndarray, velocity) -> _Pixels | None:
+    """The pixels the fit at ``q = (cx, cy, r, sigma, exposure, ...)`` reads: from 2.5 blurs
+    (or ``INNER r``) inside the rim to 2 px + 3 blurs outside (:func:`_pixels`)."""
+    b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * math.hypot(*velocity)) ** 2 / 12)
+    return _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
+
+
 def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.ndarray
            ) -> tuple[np.ndarray, np.ndarray]:
     """The compiled fit (:func:`._edge_kernel.fit_frame`) of the parameters ``free`` of ``q``
@@ -376,7 +383,8 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
                    2.0 * math.pi, 0.5 * math.pi])
     if held is None and (light is not None or r0 < SHADOW_MIN_RADIUS):
         fixed[5:] = True  # the light given, or no shadow (elevation pi/2, from _start)
-        q[5:] = light if light is not None else q[5:]
+        if light is not None:
+            q[5:] = light
     elif held is None:
         # the light's direction: the model without a shadow fitted first, then the best of a
         # grid of directions there (from the grid's start the fits ended 40-60 degrees from
@@ -391,8 +399,7 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
         q = q if fixed[5] else lit
     res = px = None
     for _ in range(2):  # twice: the pixels are chosen again from the first fit
-        b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
-        px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
+        px = _rim_pixels(img, bg, q, velocity)
         if px is None or px.u.size < 40:
             return None
         q = np.where(fixed, q, np.clip(q, lo + 1e-9, hi - 1e-9))  # held: as given (pi/2)
@@ -440,9 +447,7 @@ def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
     light's direction the best of ``_START_AZIMUTHS`` x ``_START_ELEVATIONS`` there, or none
     (elevation pi/2) where that is not better by ``SHADOW_MIN_GAIN`` or the blur is above
     ``SHADOW_MAX_BLUR`` of the radius."""
-    speed = math.hypot(*velocity)
-    b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * speed) ** 2 / 12)
-    px = _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
+    px = _rim_pixels(img, bg, q, velocity)
     if px is None or px.u.size < 40:
         return None
     free = np.array([1, 1, 1, 1, 1, 0, 0], bool)
@@ -456,7 +461,6 @@ def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
         q[5:] = 0.0, _NO_SHADOW
         return q
     best, q_lit = math.inf, q.copy()
-    q[6] = _NO_SHADOW
     px = _every_other(px)
     try:
         none = float(np.sum(_residual(q, px) ** 2))
@@ -512,17 +516,19 @@ def _shared_light(args, fits: list[EdgeFit]) -> tuple[float, float]:
     azimuth, ~40 degrees apart; their mean fell between them: a ball lit from the right, 14
     degrees, came out at 30-48, the radius -0.3 to -0.9 %; with this, 12-16 and -0.1 to
     -1.0 %.)"""
+    frames = []  # each frame's fit (its light to be replaced) and pixels
+    for (img, bg, _, v), f in zip(args, fits, strict=True):
+        q = np.array([f.cx, f.cy, f.r, f.sigma, f.exposure, f.az, f.el])
+        px = _rim_pixels(img, bg, q, v)
+        if px is not None:
+            frames.append((q, px, f.rms ** 2 * px.u.size + 1e-9))
     best, light = math.inf, (fits[0].az, fits[0].el)
     for cand in fits:
         total = 0.0
-        for (img, bg, _, v), f in zip(args, fits, strict=True):
-            b = math.sqrt(f.sigma ** 2 + 1 / 12 + (f.exposure * math.hypot(*v)) ** 2 / 12)
-            px = _pixels(img, bg, (f.cx, f.cy), v, f.r, max(2.5 * b, INNER * f.r), 2.0 + 3.0 * b)
-            if px is None:
-                continue
-            q = np.array([f.cx, f.cy, f.r, f.sigma, f.exposure, cand.az, cand.el])
+        for q, px, scale in frames:
+            q[5:] = cand.az, cand.el
             try:
-                total += float(np.sum(_residual(q, px) ** 2)) / (f.rms ** 2 * px.u.size + 1e-9)
+                total += float(np.sum(_residual(q, px) ** 2)) / scale
             except np.linalg.LinAlgError:
                 total = math.inf
         if total < best:

@@ -43,7 +43,8 @@ def _shadow(uu, s, r, ct, st, az_c, az_s, el, nodes, cp):
     and ``n_z m`` (linear limb darkening times Lambert), blurred along the radius as the
     others: ``C = int_0^w* N(w; uu, s^2) m(w) dw``, by Gauss-Legendre quadrature in
     ``tau = sqrt(w)`` (which takes away the ``sqrt`` of ``n_z`` at the rim) over the
-    Gaussian's +-4 s (``_CUT``). ``m(w*) = 0`` so the limit's motion adds nothing to the derivatives."""
+    Gaussian's +-4 s (``_CUT``). ``m(w*) = 0`` so the limit's motion adds nothing to the
+    derivatives."""
     for j in range(2):
         for k in range(7):
             cp[j, k] = 0.0
@@ -92,8 +93,9 @@ def _shadow(uu, s, r, ct, st, az_c, az_s, el, nodes, cp):
             cp[j, 2] += g_s * f
             cp[j, 3] += g * f_r
             cp[j, 4] += g * f_t
-            cp[j, 5] -= g * f_t
             cp[j, 6] += g * f_el
+    for j in range(2):  # A depends on t - az only
+        cp[j, 5] = -cp[j, 4]
     # the Gaussian's cut at uu -+ CUT s moves with uu and s: the ends' terms (the derivatives
     # are then those of the integral computed, which the fits' Jacobian must be)
     for end in range(2):
@@ -335,7 +337,8 @@ def _cho_solve(low, b):
 @njit(cache=True)
 def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v, speed, frame,
            n_frames, weight, grey, bg, z0, dz, table, nodes, rim_order, want_jac):
-    """The edge model's weighted residual at ``(cx, cy, r, sigma, exposure)``, the linear
+    """The edge model's weighted residual at ``(cx, cy, r, sigma, exposure, az, el)`` (the
+    light's direction; elevation pi/2 or more: no shadow columns), the linear
     coefficients solved (variable projection), and its Jacobian with respect to the
     parameters flagged in ``free`` (``(n_pix, n_free)``; empty unless ``want_jac``), in one
     call. Each pixel's centre is ``(cu + cx, cv + cy)``: ``cu, cv`` the frames' offsets (zero
@@ -451,8 +454,8 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
 @njit(cache=True)
 def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0,
                     dz, table, nodes, rim_order):
-    """:func:`varpro` at ``q = (cx, cy, r, sigma, exposure)`` of one frame's pixels, with the
-    Jacobian; ``ok`` False where the normal equations are singular or a residual is not
+    """:func:`varpro` at ``q = (cx, cy, r, sigma, exposure, az, el)`` of one frame's pixels,
+    with the Jacobian; ``ok`` False where the normal equations are singular or a residual is not
     finite."""
     zero = np.zeros(u.size)
     res, jac, ok = varpro(q[0], q[1], q[2], q[3], q[4], q[5], q[6], free, u, v, zero, zero,
@@ -469,7 +472,7 @@ def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
 def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_v, speed,
               frame, n_frames, weight, grey, bg, z0, dz, table, nodes, rim_order):
     """Least squares of the edge model of one frame over the parameters of ``q0 = (cx, cy, r,
-    sigma, exposure)`` flagged in ``free``, within ``lo <= x <= hi`` (the free ones):
+    sigma, exposure, az, el)`` flagged in ``free``, within ``lo <= x <= hi`` (the free ones):
     Levenberg-Marquardt on the analytic Jacobian of :func:`varpro`, in the variables
     ``x / x_scale``, the damping updated from the gain ratio (Nielsen 1999: ``lambda`` times
     ``max(1/3, 1 - (2 rho - 1)^3)`` on success, doubling factors on failure) from 1e-6 of the

@@ -262,6 +262,7 @@ def _optional(v: float | None, digits: int = 6) -> float | None:
 def _ball_record(tr: Track) -> dict[str, object]:
     """The track record's ``ball`` section."""
     fit = tr.radius_fit
+    light = [None, None] if fit is None else [_optional(math.degrees(a), 1) for a in fit.light]
     return {"radius_px": _optional(tr.ball_radius, 4),
             "radius_se_px": _optional(tr.ball_radius_se, 4),
             "method": "edge model" if fit is not None else "coverage (median)",
@@ -271,8 +272,7 @@ def _ball_record(tr: Track) -> dict[str, object]:
             "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
             # the direction of the light whose shadow the edge model holds (degrees; 90: lit
             # from the camera, no shadow at the rim)
-            "light_azimuth_deg": _optional(math.degrees(fit.light[0]), 1) if fit is not None else None,
-            "light_elevation_deg": _optional(math.degrees(fit.light[1]), 1) if fit is not None else None,
+            "light_azimuth_deg": light[0], "light_elevation_deg": light[1],
             "centre_sd_px": _optional(fit.centre_sd, 4) if fit is not None else None,
             "warning": radius_warning(tr)}
 
