@@ -49,7 +49,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._edge_kernel import _cho_solve, _cholesky
+from ._edge_kernel import _cho_solve, _cholesky, _shadow
 
 SMALL_RADIUS = 8.0   # px: balls up to this radius get refined centres (larger ones: centroids)
 N_ITER = 1           # Gauss-Newton steps per frame from the centre predicted from the two
@@ -59,6 +59,21 @@ PREDICT_PX = 0.5     # the prediction is used where within this of the centroid 
 RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
 REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
 N_LIN = 9            # linear coefficients: b_0..b_5, o_0..o_2
+N_SHADOW = 2         # shadow columns (those of the edge model) where the light is not frontal
+SHADOW_NODES = 4     # their quadrature nodes (the crescent is < 1.5 px deep at this size: 4
+#                      nodes give the columns to 4e-6 of their largest value; the edge model: 12)
+LIGHT_FRAMES = 5     # frames the light's direction is chosen on (of the RADIUS_FRAMES)
+LIGHT_GAIN = 15.0    # the shadow kept where it lowers their cost by at least this many residual
+#   variances a frame (32 clips of benchmarks/paper_camera.py: lit from the camera 3-33, from
+#   73 degrees 5-59, from 48-50 degrees 130-215)
+# the light's azimuth: the shading's gradient's, and within +-30 degrees of it (10 apart); its
+# elevation: the best of these (radians; 49, 57, 69 degrees). The cost is nearly flat in the
+# elevation and under a blur prefers ones lower than the light's (20-30 degrees for a light at
+# 48, blur 0.6 px: the blurred crescent trades against the blur and the shading), where the
+# centres are pulled the other way (a clip lit from the left: RMS 0.056 px at 48 degrees,
+# 0.103 at 34, 0.158 at 20; docs/tracking.md section 3)
+LIGHT_OFFSETS = np.radians(np.arange(-30.0, 31.0, 10.0))
+LIGHT_ELEVATIONS = (0.85, 1.0, 1.2)
 SE_FACTOR = 1.5      # the stated per-frame SD of refined centres: this times their formal SE
 #   (independent pixels; MJPEG/MPEG-4 errors are correlated between pixels, which it misses:
 #   over the 32 clips of benchmarks/paper_camera.py the centres' scatter about their mean error
@@ -135,12 +150,21 @@ _N_AUX = 24
 
 
 @njit(cache=True)
+def _result(cx, cy, r, se_x, se_y, rss, n, b_1, b_2):
+    """A fit's outcome as one array: centre, radius, the centre's formal standard errors, the
+    residual sum of squares and pixel count, and the shading's gradient ``b_1, b_2``."""
+    out = np.empty(9)
+    out[0], out[1], out[2], out[3], out[4] = cx, cy, r, se_x, se_y
+    out[5], out[6], out[7], out[8] = rss, n, b_1, b_2
+    return out
+
+
+@njit(cache=True)
 def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
-               gt, dgt):
+               gt, dgt, az, el, nodes):
     """One frame's fit from the centre ``(cx, cy)``, ``n_iter`` >= 1 steps: ok, centre, radius,
     and the centre's formal standard errors (px: the residual's variance times the inverse
     normal matrix)."""
-    n_iter = max(n_iter, 1)
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
@@ -151,7 +175,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     u0, v0 = max(int(math.floor(cx - reach)), 0), max(int(math.floor(cy - reach)), 0)
     u1, v1 = min(int(math.ceil(cx + reach)) + 1, w), min(int(math.ceil(cy + reach)) + 1, h)
     if u1 - u0 < 3 or v1 - v0 < 3:
-        return False, cx, cy, r, 0.0, 0.0
+        return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
     n_max = (u1 - u0) * (v1 - v0)
     pu = np.empty(n_max)
     pv = np.empty(n_max)
@@ -165,16 +189,21 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                 grey[n], back[n] = frame[i, j], gain * bg[i, j]
                 n += 1
     n_nl = 3 if r_free else 2
-    m = n_nl + N_LIN
+    n_sh = N_SHADOW if el < 0.5 * math.pi else 0  # lit from the camera: no shadow column
+    n_lin = N_LIN + n_sh
+    m = n_nl + n_lin
+    az_c, az_s = math.cos(az), math.sin(az)
+    cp = np.zeros((2, 7))
+    dsh = np.zeros((n, max(n_sh, 1), 3))  # the shadow columns' derivatives (cx, cy, r)
     inv_s0, inv_dzt = 1.0 / math.sqrt(base), 1.0 / dzt
     if n < 4 * m:
-        return False, cx, cy, r, 0.0, 0.0
+        return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
     aux = np.empty((n, _N_AUX))
     jt = np.empty((m, n))  # the Jacobian, transposed: its rows' dot products vectorise
     res = np.empty(n)
-    beta = np.zeros(N_LIN)
+    beta = np.zeros(n_lin)
     r0, x0, y0 = r, cx, cy
-    for it in range(n_iter):
+    for it in range(max(n_iter, 1)):
         for k in range(n):
             _pixel(pu[k] - cx, pv[k] - cy, r, 1.0 / r, base, inv_s0, smear2, dir_u, dir_v, r_free,
                    aux, k, z0, inv_dzt, gt, dgt)
@@ -186,15 +215,40 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
             jt[n_nl + 5, k] = step * (aux[k, 3] * aux[k, 3] - aux[k, 4] * aux[k, 4])
             jt[n_nl + 6, k] = out
             jt[n_nl + 7, k], jt[n_nl + 8, k] = out * ct, out * st
+            if n_sh > 0:
+                du, dv = pu[k] - cx, pv[k] - cy
+                rho = max(math.sqrt(du * du + dv * dv), 1e-9)
+                if smear2 > 0.0:
+                    cv = ct * dir_u + st * dir_v
+                    var_t = base + smear2 * (1.0 - cv * cv)
+                    s_r = math.sqrt(base + smear2 * cv * cv)
+                else:
+                    var_t, s_r = base, math.sqrt(base)
+                uu = r - 0.5 * var_t / r - rho
+                _shadow(uu, s_r, r, ct, st, az_c, az_s, el, nodes, cp)
+                for j in range(n_sh):
+                    jt[n_nl + N_LIN + j, k] = cp[j, 0]
+                    # the depth grows by cos t, the angle by sin t / rho as cx grows
+                    dsh[k, j, 0] = cp[j, 1] * ct + cp[j, 4] * st / rho
+                    dsh[k, j, 1] = cp[j, 1] * st - cp[j, 4] * ct / rho
+                    dsh[k, j, 2] = cp[j, 1] * (1.0 + 0.5 * var_t / (r * r)) + cp[j, 3]
             res[k] = grey[k] - back[k] * out
         if it == 0:  # the linear coefficients at the starting centre
             ok, beta = _solve(*_normal(jt, res, n_nl))
             if not ok:
-                return False, cx, cy, r, 0.0, 0.0
+                return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
+            if n_iter == 0:  # only the cost there
+                rss = 0.0
+                for k in range(n):
+                    e = res[k]
+                    for q in range(n_lin):
+                        e -= beta[q] * jt[n_nl + q, k]
+                    rss += e * e
+                return True, _result(cx, cy, r, 0.0, 0.0, rss, n, beta[1], beta[2])
         for k in range(n):
             step, ct, st = aux[k, 0], aux[k, 1], aux[k, 2]
             e = res[k]
-            for q in range(N_LIN):
+            for q in range(n_lin):
                 e -= beta[q] * jt[n_nl + q, k]
             res[k] = e
             x, y = aux[k, 3], aux[k, 4]
@@ -209,18 +263,20 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                                       + beta[4] * (dx * y + x * dy)
                                       + beta[5] * 2.0 * (x * dx - y * dy))
                             + (1.0 - step) * (beta[7] * aux[k, o + 4] + beta[8] * aux[k, o + 5]))
+                for j in range(n_sh):
+                    jt[p, k] += beta[N_LIN + j] * dsh[k, j, p]
         mat, rhs = _normal(jt, res, 0)
         ok, delta = _solve(mat, rhs)  # mat: its Cholesky factor
         if not ok or abs(delta[0]) > 3.0 or abs(delta[1]) > 3.0:
-            return False, cx, cy, r, 0.0, 0.0
+            return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
         cx += delta[0]
         cy += delta[1]
         if r_free:
             r = min(max(r + delta[2], 0.7 * r0), 1.3 * r0)
-        for q in range(N_LIN):
+        for q in range(n_lin):
             beta[q] += delta[n_nl + q]
         if math.hypot(cx - x0, cy - y0) > 0.5 * r0:  # diverged: not this ball
-            return False, cx, cy, r, 0.0, 0.0
+            return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
     # the centre's formal standard errors, from the last step's residual and normal equations
     var = 0.0
     for k in range(n):
@@ -232,7 +288,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
         e[p] = 1.0
         _cho_solve(mat, e)
         se[p] = math.sqrt(max(e[p], 0.0) * var)
-    return True, cx, cy, r, se[0], se[1]
+    return True, _result(cx, cy, r, se[0], se[1], var * max(n - m, 1), n, beta[1], beta[2])
 
 
 @njit(cache=True, fastmath=True)
@@ -280,7 +336,7 @@ def _solve(mat, rhs):
 
 @njit(cache=True)
 def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter,
-                  z0, dzt, gt, dgt):
+                  z0, dzt, gt, dgt, az, el, nodes):
     """:func:`_fit_frame` on frames ``idx`` (in time order) with velocities ``vel`` (px per
     frame): ``(len(idx), 5)`` centre, radius and the centre's formal standard errors, NaN where
     the fit failed. Each fit starts from the centre predicted from the two frames before, where
@@ -296,25 +352,57 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
             py = 2.0 * out[n - 1, 1] - out[n - 2, 1]
             if math.hypot(px - x0, py - y0) <= PREDICT_PX:
                 x0, y0, steps = px, py, n_iter
-        ok, cx, cy, rr, se_x, se_y = _fit_frame(frames[k], bg, gains[k], x0, y0, vel[n, 0],
+        ok, fit = _fit_frame(frames[k], bg, gains[k], x0, y0, vel[n, 0],
                                                 vel[n, 1], r, sigma, exposure, r_free, steps,
-                                                z0, dzt, gt, dgt)
+                                                z0, dzt, gt, dgt, az, el, nodes)
         if ok:
-            out[n, 0], out[n, 1], out[n, 2], out[n, 3], out[n, 4] = cx, cy, rr, se_x, se_y
+            out[n] = fit[:5]
     return out
 
 
+@njit(cache=True)
+def light_costs(frames, bg, gains, idx, centres, vel, r, sigma, exposure, z0, dzt, gt, dgt,
+                azs, els, nodes):
+    """The cost of the small-ball model with the light from each direction ``(azs[c],
+    els[c])`` (radians; elevation pi/2: no shadow) on frames ``idx`` at the centres
+    ``centres`` (the linear coefficients fitted, the centre and radius held): the residual sums
+    of squares over the frames (inf where a frame's fit failed), the number of pixels, and the
+    shading's gradient ``(b_1, b_2)`` summed over the frames (of the first direction)."""
+    costs = np.zeros(len(azs))
+    n_pix = 0
+    grad = np.zeros(2)
+    for c in range(len(azs)):
+        for n in range(len(idx)):
+            k = idx[n]
+            ok, fit = _fit_frame(frames[k], bg, gains[k], centres[n, 0], centres[n, 1],
+                                 vel[n, 0], vel[n, 1], r, sigma, exposure, False, 0, z0, dzt, gt,
+                                 dgt, azs[c], els[c], nodes)
+            if not ok:
+                costs[c] = np.inf
+            else:
+                costs[c] += fit[5]
+                if c == 0:
+                    n_pix += int(fit[6])
+                    grad[0] += fit[7]
+                    grad[1] += fit[8]
+    return costs, n_pix, grad
+
+
 def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndarray,
-                   method: np.ndarray, fit) -> tuple[np.ndarray, np.ndarray]:
+                   method: np.ndarray, fit
+                   ) -> tuple[np.ndarray, np.ndarray, tuple[float, float] | None]:
     """Refine, in place, the centres of the frames where the ball was found (``method``
     ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
     the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
     ``SMALL_RADIUS``) and its fitted blur at most ``CENTRE_FIT_BLUR`` of it. Returns the mask of
-    the frames refined (a failed fit keeps its centroid) and their centres' formal standard
-    errors ``(n, 2)`` (px; NaN where not refined). First ``RADIUS_FRAMES`` frames spread over
-    the video with the radius free, then every frame with it held at their median.
+    the frames refined (a failed fit keeps its centroid), their centres' formal standard
+    errors ``(n, 2)`` (px; NaN where not refined) and the light's direction ``(az, el)`` of
+    the shadow columns (radians; elevation pi/2: none; None where nothing was refined). First
+    ``RADIUS_FRAMES`` frames spread over the video with the radius free and no shadow; on
+    ``LIGHT_FRAMES`` of them the light (:func:`find_light`); where it casts a shadow, those
+    frames again with it; then every frame with the radius held at their median.
     ``clean(centres)``: the background model with the ball left out around ``centres``."""
-    from ._edge import CENTRE_FIT_BLUR
+    from ._edge import CENTRE_FIT_BLUR, _nodes, _sqrt_table
     from ._measure import CENTROID, EDGE_FIT
 
     done = np.zeros(len(frames), bool)
@@ -325,10 +413,10 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px, with fitted blurs of 18-23 % of the
     # radius before the edge model's starts reached below the coverage radius; 31-41 % now)
     if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > CENTRE_FIT_BLUR * fit.radius:
-        return done, no_se
-    idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT))
+        return done, no_se, None
+    idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT)).astype(np.int64)
     if len(idx) < 3:
-        return done, no_se
+        return done, no_se, None
     found = ~np.isnan(centre[:, 0])
     prev, nxt = np.maximum(idx - 1, 0), np.minimum(idx + 1, len(frames) - 1)
     both = found[prev] & found[nxt] & (nxt > prev)
@@ -341,23 +429,56 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     vel = np.ascontiguousarray(vel, np.float64)
     sub = np.unique(np.linspace(0, len(idx) - 1, min(RADIUS_FRAMES, len(idx))).round()
                     .astype(np.int64))
-    from ._edge import _sqrt_table
-
     zt, gt = _sqrt_table()
     table = (float(zt[0]), float(zt[1] - zt[0]), gt, np.gradient(gt, zt))
-    first = refine_frames(frames, bg64, gains, idx[sub].astype(np.int64), start[sub], vel[sub],
-                          float(fit.radius), float(fit.sigma), float(fit.exposure), True, N_ITER,
-                          *table)
-    radii = first[:, 2][~np.isnan(first[:, 2])]
-    r = float(np.median(radii)) if len(radii) >= 3 else float(fit.radius)
-    out = refine_frames(frames, bg64, gains, idx.astype(np.int64), start, vel, r,
-                        float(fit.sigma), float(fit.exposure), False, N_ITER, *table)
+    nodes, blur = _nodes(SHADOW_NODES), (float(fit.sigma), float(fit.exposure))
+    light: tuple[float, float] = (0.0, 0.5 * math.pi)  # first without a shadow
+
+    def radius(light: tuple[float, float]):  # the first pass, radius free: its frames' fits and median radius
+        first = refine_frames(frames, bg64, gains, idx[sub], start[sub], vel[sub],
+                              float(fit.radius), *blur, True, N_ITER, *table, *light, nodes)
+        good = np.flatnonzero(~np.isnan(first[:, 0]))
+        return first, good, float(np.median(first[good, 2])) if len(good) >= 3 else None
+
+    first, good, r = radius(light)
+    if r is not None:
+        pick = good[np.unique(np.linspace(0, len(good) - 1, min(LIGHT_FRAMES, len(good)))
+                              .round().astype(np.int64))]
+        light = find_light(frames, bg64, gains, idx[sub][pick], first[pick, :2], vel[sub][pick],
+                           r, blur, table, nodes)
+        if light[1] < 0.5 * math.pi:  # the radius again, with the shadow
+            r = radius(light)[2] or r
+    out = refine_frames(frames, bg64, gains, idx, start, vel, r or float(fit.radius), *blur,
+                        False, N_ITER, *table, *light, nodes)
     ok = ~np.isnan(out[:, 0])
     centre[idx[ok]] = out[ok, :2]
     done[idx[ok]] = True
     se = np.full((len(frames), 2), np.nan)
     se[idx[ok]] = out[ok, 3:]
-    return done, se
+    return done, se, light
+
+
+def find_light(frames, bg, gains, idx, centres, vel, r: float, blur: tuple[float, float],
+               table: tuple[float, float, np.ndarray, np.ndarray], nodes
+               ) -> tuple[float, float]:
+    """The light's direction ``(az, el)`` (radians) for the small-ball fit's shadow columns,
+    from the frames ``idx`` at their centres ``centres`` (``vel``: px per frame; ``blur``:
+    sigma, exposure): the azimuth of the shading's gradient without a shadow, then the best
+    of ``LIGHT_OFFSETS`` about it at the middle elevation, then the best of
+    ``LIGHT_ELEVATIONS`` there. ``(0, pi/2)`` (no shadow) where the best does not lower the
+    cost by ``LIGHT_GAIN`` residual variances a frame."""
+    args = (frames, bg, gains, idx.astype(np.int64), np.ascontiguousarray(centres),
+            np.ascontiguousarray(vel), r, *blur, *table)
+    none, n_pix, grad = light_costs(*args, np.zeros(1), np.full(1, 0.5 * math.pi), nodes)
+    azs = math.atan2(grad[1], grad[0]) + LIGHT_OFFSETS  # the lit side's direction
+    costs, _, _ = light_costs(*args, azs, np.full(azs.size, LIGHT_ELEVATIONS[1]), nodes)
+    az = float(azs[int(np.argmin(costs))])
+    els = np.array(LIGHT_ELEVATIONS)
+    costs, _, _ = light_costs(*args, np.full(els.size, az), els, nodes)
+    best = int(np.argmin(costs))
+    if not none[0] - costs[best] >= LIGHT_GAIN * len(idx) * costs[best] / max(n_pix, 1):
+        return 0.0, 0.5 * math.pi
+    return az, float(els[best])
 
 
 def stated_centre_sd(se: np.ndarray) -> float:

@@ -281,9 +281,11 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
     fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius) if \
         config.edge_model else (None, (0.0, 0.0))
     centre[method == CENTROID] += offset
-    refined, centre_se = refine_centres(frames, clean, gains, centre, method, fit)
+    refined, centre_se, light = refine_centres(frames, clean, gains, centre, method, fit)
     if refined.any() and fit is not None:  # the refined centres' SD, not the centroids'
         fit = fit._replace(centre_sd=stated_centre_sd(centre_se[refined]))
+        if light is not None and light[1] < fit.light[1]:  # the small-ball fit's shadow
+            fit = fit._replace(light=light)
     return fit, offset, refined
 
 
