@@ -7,7 +7,7 @@ becomes a thresholded mask (docs/tracking.md, the paper's camera). Here every fr
 is fitted instead, with the ball's blur and exposure from the edge model (:mod:`._edge`) held::
 
     I_i = B_i (1 - S_i) + S_i (b_0 + b_1 X_i + b_2 Y_i + b_4 X_i Y_i + b_5 (X_i^2 - Y_i^2))
-          + b_3 N_i + (1 - S_i) (o_0 + o_1 cos t_i + o_2 sin t_i)
+          + b_3 N_i + (1 - S_i) (o_0 + o_1 cos t_i + o_2 sin t_i) + c_1 M_i + c_2 M'_i
 
 ``S`` the blurred step of the rim (as :mod:`._edge`: a Gaussian lens blur, the pixel's width
 and the exposure's smear along the direction of motion, with the curvature shift of a blurred
@@ -16,17 +16,25 @@ towards the camera ``n_z = sqrt(u (2r - u)) / r`` (``u`` the depth inside the ri
 through the edge model's table of ``E[sqrt(u + e)_+]``), ``t`` the polar angle and ``o`` the
 local background level on each side: the edge model's shading (:mod:`._edge`, the spherical
 harmonics of the normal to order 2) cut to the terms that matter at this size, so that side
-light and limb darkening do not pull the centre. The linear coefficients and the centre by
+light and limb darkening do not pull the centre. ``M, M'``: where the light is not frontal,
+the edge model's two shadow columns (:func:`._edge_kernel._shadow`: the blurred ``min(0, n .
+L)`` and ``n_z min(0, n . L)``, the kink of Lambert shading at the terminator, which runs near
+the rim on the side away from the light; without them a ball lit from the side had its centres
+pulled away from the light by up to 0.2 px). The linear coefficients and the centre by
 Gauss-Newton on the ~150 pixels within about two blurs of the rim that are in the frame:
 ``N_ITER`` step from the centre predicted from the two frames before, one more from the
 coverage centroid (or the frame-edge disk fit) where there is no prediction or it is off by
 more than ``PREDICT_PX`` (the impact). The radius first (free, with the centre, on
-``RADIUS_FRAMES`` frames spread over the video; their median then held).
+``RADIUS_FRAMES`` frames spread over the video; their median then held); on
+``LIGHT_FRAMES`` of them the light's direction (:func:`find_light`), and where it casts a
+shadow the radius again with it.
 
 Measured over the 32 clips of ``benchmarks/paper_camera.py`` (radius 5 px; RMS error of the
 centres, mean over clips): the coverage centroid with the edge fits' offset 0.224 px; this
-fit 0.092 px (0.088 with two steps from the centroid in every frame, ~10 % more time), 0.098
-px with the blur from the compiled edge fit (docs/tracking.md section 4). Two more shading
+fit without the shadow columns 0.092 px (0.088 with two steps from the centroid in every
+frame, ~10 % more time), 0.100 px with the blur from the compiled edge fit (docs/tracking.md
+section 4), 26 of the 32 within 0.15 px; with them 0.070 px, 31 of 32 (the side-lit clips
+0.15-0.25 -> 0.04-0.10 px; docs/tracking.md section 3). Two more shading
 terms, ``N X`` and ``N Y`` (the limb of a side-lit ball), were tried with the one step per
 frame: 0.161 px. Its
 radius is its own: the edge model's is off by up to 18 % at this size under MPEG-4
@@ -74,10 +82,13 @@ LIGHT_GAIN = 15.0    # the shadow kept where it lowers their cost by at least th
 # 0.103 at 34, 0.158 at 20; docs/tracking.md section 3)
 LIGHT_OFFSETS = np.radians(np.arange(-30.0, 31.0, 10.0))
 LIGHT_ELEVATIONS = (0.85, 1.0, 1.2)
-SE_FACTOR = 1.5      # the stated per-frame SD of refined centres: this times their formal SE
-#   (independent pixels; MJPEG/MPEG-4 errors are correlated between pixels, which it misses:
-#   over the 32 clips of benchmarks/paper_camera.py the centres' scatter about their mean error
-#   is 0.8-1.9x the formal SE, MPEG-4 the largest)
+SE_FACTOR = 2.0      # the stated per-frame SD of refined centres: this times their formal SE
+#   (independent pixels; MJPEG/MPEG-4 errors are correlated between pixels, which it misses).
+#   Over the 32 clips of benchmarks/paper_camera.py the centres' scatter about their mean error
+#   is 0.46-1.60x the formal SE, and they drift along a flight by up to ~0.1 px with the ball's
+#   speed or height (the same in every lighting; the rebound angle's error, ~0.4 degrees in the
+#   worst clips, did not shrink with the shadow columns while the formal SE did): with 1.5 the
+#   rebound angle's z-scores had a mean square of 1.32 (largest 2.94), with 2.0 0.75 (2.21)
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
 
