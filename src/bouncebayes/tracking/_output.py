@@ -270,8 +270,8 @@ def _ball_record(tr: Track) -> dict[str, object]:
             "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
             "exposure": _optional(fit.exposure, 3) if fit is not None else None,
             "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
-            # the direction of the light whose shadow the edge model holds (degrees; 90: lit
-            # from the camera, no shadow at the rim)
+            # the direction of the light whose shadow the edge model (or, for a small ball,
+            # the small-ball fit) holds (degrees; 90: lit from the camera, no shadow at the rim)
             "light_azimuth_deg": light[0], "light_elevation_deg": light[1],
             "centre_sd_px": _optional(fit.centre_sd, 4) if fit is not None else None,
             "warning": radius_warning(tr)}
