@@ -445,7 +445,9 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     nodes, blur = _nodes(SHADOW_NODES), (float(fit.sigma), float(fit.exposure))
     light: tuple[float, float] = (0.0, 0.5 * math.pi)  # first without a shadow
 
-    def radius(light: tuple[float, float]):  # the first pass, radius free: its frames' fits and median radius
+    def radius(light: tuple[float, float]):
+        """The first pass, radius free: its frames' fits, those that succeeded, their median
+        radius (None if fewer than 3)."""
         first = refine_frames(frames, bg64, gains, idx[sub], start[sub], vel[sub],
                               float(fit.radius), *blur, True, N_ITER, *table, *light, nodes)
         good = np.flatnonzero(~np.isnan(first[:, 0]))
