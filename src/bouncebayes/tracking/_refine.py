@@ -52,7 +52,9 @@ because no library fits a blurred disk per frame at this cost.
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -413,7 +415,7 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     ``LIGHT_FRAMES`` of them the light (:func:`find_light`); where it casts a shadow, those
     frames again with it; then every frame with the radius held at their median.
     ``clean(centres)``: the background model with the ball left out around ``centres``."""
-    from ._edge import CENTRE_FIT_BLUR, _nodes, _sqrt_table
+    from ._edge import CENTRE_FIT_BLUR
     from ._measure import CENTROID, EDGE_FIT
 
     done = np.zeros(len(frames), bool)
@@ -428,47 +430,79 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT)).astype(np.int64)
     if len(idx) < 3:
         return done, no_se, None
-    found = ~np.isnan(centre[:, 0])
-    prev, nxt = np.maximum(idx - 1, 0), np.minimum(idx + 1, len(frames) - 1)
-    both = found[prev] & found[nxt] & (nxt > prev)
-    vel = np.where(both[:, None], (centre[nxt] - centre[prev]) / np.maximum(nxt - prev, 1)[:, None],
-                   0.0)
-    frames = np.ascontiguousarray(frames)
-    bg64 = np.ascontiguousarray(clean(centre[idx]), np.float64)
-    gains = np.ascontiguousarray(gains, np.float64)
-    start = np.ascontiguousarray(centre[idx], np.float64)
-    vel = np.ascontiguousarray(vel, np.float64)
-    sub = np.unique(np.linspace(0, len(idx) - 1, min(RADIUS_FRAMES, len(idx))).round()
-                    .astype(np.int64))
-    zt, gt = _sqrt_table()
-    table = (float(zt[0]), float(zt[1] - zt[0]), gt, np.gradient(gt, zt))
-    nodes, blur = _nodes(SHADOW_NODES), (float(fit.sigma), float(fit.exposure))
-    light: tuple[float, float] = (0.0, 0.5 * math.pi)  # first without a shadow
-
-    def radius(light: tuple[float, float]):
-        """The first pass, radius free: its frames' fits, those that succeeded, their median
-        radius (None if fewer than 3)."""
-        first = refine_frames(frames, bg64, gains, idx[sub], start[sub], vel[sub],
-                              float(fit.radius), *blur, True, N_ITER, *table, *light, nodes)
-        good = np.flatnonzero(~np.isnan(first[:, 0]))
-        return first, good, float(np.median(first[good, 2])) if len(good) >= 3 else None
-
-    first, good, r = radius(light)
-    if r is not None:
-        pick = good[np.unique(np.linspace(0, len(good) - 1, min(LIGHT_FRAMES, len(good)))
-                              .round().astype(np.int64))]
-        light = find_light(frames, bg64, gains, idx[sub][pick], first[pick, :2], vel[sub][pick],
-                           r, blur, table, nodes)
-        if light[1] < 0.5 * math.pi:  # the radius again, with the shadow
-            r = radius(light)[2] or r
-    out = refine_frames(frames, bg64, gains, idx, start, vel, r or float(fit.radius), *blur,
-                        False, N_ITER, *table, *light, nodes)
+    args = _inputs(frames, clean, gains, centre, idx, fit)
+    r, light = _radius_and_light(args, float(fit.radius))
+    out = refine_frames(*args[:6], r, *args.blur, False, N_ITER, *args.table, *light, args.nodes)
     ok = ~np.isnan(out[:, 0])
     centre[idx[ok]] = out[ok, :2]
     done[idx[ok]] = True
     se = np.full((len(frames), 2), np.nan)
     se[idx[ok]] = out[ok, 3:]
     return done, se, light
+
+
+class _Inputs(NamedTuple):
+    """What the small-ball fits of a video read: the frames, the ball-free background (float),
+    the frames' gains, the frames to fit (``idx``) with their starting centres and velocities
+    (px per frame), the blur and exposure, the limb table, the shadow's quadrature nodes."""
+
+    frames: np.ndarray
+    bg: np.ndarray
+    gains: np.ndarray
+    idx: np.ndarray
+    start: np.ndarray
+    vel: np.ndarray
+    blur: tuple[float, float]
+    table: tuple[float, float, np.ndarray, np.ndarray]
+    nodes: np.ndarray
+
+
+def _inputs(frames, clean, gains, centre, idx, fit) -> _Inputs:
+    """:class:`_Inputs` for the frames ``idx`` (the velocities from the neighbouring frames'
+    centres where both were found, else 0)."""
+    from ._edge import _nodes, _sqrt_table
+
+    found = ~np.isnan(centre[:, 0])
+    prev, nxt = np.maximum(idx - 1, 0), np.minimum(idx + 1, len(frames) - 1)
+    both = found[prev] & found[nxt] & (nxt > prev)
+    vel = np.where(both[:, None], (centre[nxt] - centre[prev]) / np.maximum(nxt - prev, 1)[:, None],
+                   0.0)
+    zt, gt = _sqrt_table()
+    f64 = functools.partial(np.ascontiguousarray, dtype=np.float64)
+    return _Inputs(np.ascontiguousarray(frames), f64(clean(centre[idx])), f64(gains), idx,
+                   f64(centre[idx]), f64(vel), (float(fit.sigma), float(fit.exposure)),
+                   (float(zt[0]), float(zt[1] - zt[0]), gt, np.gradient(gt, zt)),
+                   _nodes(SHADOW_NODES))
+
+
+def _spread(n: int, k: int) -> np.ndarray:
+    """Up to ``k`` of ``range(n)``, evenly spread."""
+    return np.unique(np.linspace(0, n - 1, min(k, n)).round().astype(np.int64))
+
+
+def _radius_and_light(a: _Inputs, r0: float) -> tuple[float, tuple[float, float]]:
+    """The radius to hold and the light's direction: the median radius of ``RADIUS_FRAMES``
+    frames' fits with it free (from ``r0``) and no shadow; on ``LIGHT_FRAMES`` of them the light
+    (:func:`find_light`), and where it casts a shadow the radius again with it. ``r0`` where
+    fewer than 3 of the fits succeed."""
+    sub = _spread(len(a.idx), RADIUS_FRAMES)
+
+    def first_pass(light: tuple[float, float]):  # the frames' fits, those that succeeded, their median radius
+        first = refine_frames(a.frames, a.bg, a.gains, a.idx[sub], a.start[sub], a.vel[sub], r0,
+                              *a.blur, True, N_ITER, *a.table, *light, a.nodes)
+        good = np.flatnonzero(~np.isnan(first[:, 0]))
+        return first, good, float(np.median(first[good, 2])) if len(good) >= 3 else None
+
+    light = (0.0, 0.5 * math.pi)  # first without a shadow
+    first, good, r = first_pass(light)
+    if r is None:
+        return r0, light
+    pick = good[_spread(len(good), LIGHT_FRAMES)]
+    light = find_light(a.frames, a.bg, a.gains, a.idx[sub][pick], first[pick, :2],
+                       a.vel[sub][pick], r, a.blur, a.table, a.nodes)
+    if light[1] < 0.5 * math.pi:  # the radius again, with the shadow
+        r = first_pass(light)[2] or r
+    return r, light
 
 
 def find_light(frames, bg, gains, idx, centres, vel, r: float, blur: tuple[float, float],
