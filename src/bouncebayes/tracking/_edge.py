@@ -115,21 +115,36 @@ CENTRE_FIT_BLUR = 0.2
 UNCERTAIN_RADIUS = 0.02  # relative SD of the radius above which a warning says to give a length
 
 
+EDGE_MODEL, SMALL_BALL_FIT = "edge model", "small-ball fit"  # RadiusFit.method
+# Systematic error of the small-ball fit's radius (._refine; a ball of radius <= 8 px with its
+# blur <= CENTRE_FIT_BLUR of it), px, in quadrature with its scatter across frames: over the 32
+# clips of benchmarks/paper_camera.py and the 17 scenarios of benchmarks/tracking_accuracy.py
+# where it runs (radius 5 px) its radius came out -5.4 to +5.2 % (RMS 1.8 %, 0.09 px; the
+# edge model's -4.6 to +6.6 %, RMS 3.6 %), the largest a glossy ball blurred by 0.7 px and a
+# clip whose fitted blur is 0.48 px against 0.6; 0.12 px (2.4 % at 5 px) gives them |z| <= 2.2
+SMALL_FIT_SYSTEMATIC_PX = 0.12
+
+
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
     blur = 0.0 if blur_px is None else blur_px
     return SYSTEMATIC_PX + BLUR_PX3 * blur**3 + SMALL_BALL_PX5 / radius_px**4
 
 
-def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None) -> float:
-    """The relative standard deviation of the edge model's radius: its scatter across frames
-    ``radius_se_px`` and the systematic error (:func:`edge_model_systematic_px`) in
-    quadrature."""
-    return math.hypot(radius_se_px, edge_model_systematic_px(radius_px, blur_px)) / radius_px
+def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None,
+                       method: str = EDGE_MODEL) -> float:
+    """The relative standard deviation of the ball's radius: its scatter across frames
+    ``radius_se_px`` and the systematic error in quadrature: the edge model's
+    (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` where ``method`` is
+    ``SMALL_BALL_FIT``."""
+    systematic = SMALL_FIT_SYSTEMATIC_PX if method == SMALL_BALL_FIT else \
+        edge_model_systematic_px(radius_px, blur_px)
+    return math.hypot(radius_se_px, systematic) / radius_px
 
 
 class RadiusFit(NamedTuple):
-    """The ball's radius from the edge model: ``radius`` (px) and its standard error
+    """The ball's radius from the edge model (or, for a small ball, the small-ball fit:
+    ``method``): ``radius`` (px) and its standard error
     ``radius_se`` (px, from the scatter of single-frame radii with the shared blur and
     shading held), blur ``sigma`` (px), ``exposure`` (fraction of the frame interval), RMS
     residual (grey levels), and the frames fitted; ``centre_sd``: the tracked centres' per-frame
@@ -146,6 +161,7 @@ class RadiusFit(NamedTuple):
     centres: np.ndarray    # the edge fits' centres of ``frames`` (px)
     centre_sd: float = math.nan  # per-frame SD of the tracked centres, per coordinate (px)
     light: tuple[float, float] = (math.nan, math.nan)  # the light's azimuth, elevation (rad)
+    method: str = EDGE_MODEL  # what gave ``radius``: EDGE_MODEL or SMALL_BALL_FIT (._refine)
 
 
 class _Pixels(NamedTuple):

@@ -219,9 +219,10 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
     else:
         diameter = PAPER_BALL_DIAMETER if ball_diameter is None else ball_diameter
         fit = track.radius_fit
-        calibration = Calibration.from_ball_diameter(diameter, track.ball_radius,
-                                                     track.ball_radius_se,
-                                                     fit.sigma if fit is not None else None)
+        calibration = Calibration.from_ball_diameter(
+            diameter, track.ball_radius, track.ball_radius_se,
+            fit.sigma if fit is not None else None,
+            fit.method if fit is not None else "edge model")
     if surface is None:
         surface = detect_surface(track.background)
         if surface is None:
@@ -265,7 +266,7 @@ def _ball_record(tr: Track) -> dict[str, object]:
     light = [None, None] if fit is None else [_optional(math.degrees(a), 1) for a in fit.light]
     return {"radius_px": _optional(tr.ball_radius, 4),
             "radius_se_px": _optional(tr.ball_radius_se, 4),
-            "method": "edge model" if fit is not None else "coverage (median)",
+            "method": fit.method if fit is not None else "coverage (median)",
             "edge_frames": list(fit.frames) if fit is not None else [],
             "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
             "exposure": _optional(fit.exposure, 3) if fit is not None else None,
@@ -291,7 +292,7 @@ def radius_warning(track: Track) -> str | None:
         return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
                 "px: its radius, and the --ball-diameter scale, may be off by several percent "
                 "(the stated uncertainty allows for it); give --reference for a better scale")
-    rel = radius_relative_sd(fit.radius, fit.radius_se, fit.sigma)
+    rel = radius_relative_sd(fit.radius, fit.radius_se, fit.sigma, fit.method)
     if rel > UNCERTAIN_RADIUS:
         return (f"the ball is {fit.radius:.3g} px in radius: too few pixels at its edge to "
                 f"tell its radius from the blur and shading better than +-{100 * rel:.2g} % "

@@ -402,8 +402,7 @@ def light_costs(frames, bg, gains, idx, centres, vel, r, sigma, exposure, z0, dz
 
 
 def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndarray,
-                   method: np.ndarray, fit
-                   ) -> tuple[np.ndarray, np.ndarray, tuple[float, float] | None]:
+                   method: np.ndarray, fit) -> Refined:
     """Refine, in place, the centres of the frames where the ball was found (``method``
     ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
     the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
@@ -426,19 +425,33 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px, with fitted blurs of 18-23 % of the
     # radius before the edge model's starts reached below the coverage radius; 31-41 % now)
     if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > CENTRE_FIT_BLUR * fit.radius:
-        return done, no_se, None
+        return Refined(done, no_se)
     idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT)).astype(np.int64)
     if len(idx) < 3:
-        return done, no_se, None
+        return Refined(done, no_se)
     args = _inputs(frames, clean, gains, centre, idx, fit)
-    r, light = _radius_and_light(args, float(fit.radius))
+    r, r_se, light = _radius_and_light(args, float(fit.radius))
     out = refine_frames(*args[:6], r, *args.blur, False, N_ITER, *args.table, *light, args.nodes)
     ok = ~np.isnan(out[:, 0])
     centre[idx[ok]] = out[ok, :2]
     done[idx[ok]] = True
     se = np.full((len(frames), 2), np.nan)
     se[idx[ok]] = out[ok, 3:]
-    return done, se, light
+    return Refined(done, se, light, r, r_se)
+
+
+class Refined(NamedTuple):
+    """What :func:`refine_centres` found: the mask of frames refined, their centres' formal
+    standard errors ``(n, 2)`` (px; NaN where not refined), the light's direction ``(az,
+    el)`` of the shadow columns (radians; elevation pi/2: none), and the radius the fits held
+    with its standard error (px; NaN where the first pass failed and the edge model's was
+    held). ``light`` None where nothing was refined."""
+
+    done: np.ndarray
+    se: np.ndarray
+    light: tuple[float, float] | None = None
+    radius: float = math.nan
+    radius_se: float = math.nan
 
 
 class _Inputs(NamedTuple):
@@ -480,29 +493,33 @@ def _spread(n: int, k: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(k, n)).round().astype(np.int64))
 
 
-def _radius_and_light(a: _Inputs, r0: float) -> tuple[float, tuple[float, float]]:
-    """The radius to hold and the light's direction: the median radius of ``RADIUS_FRAMES``
-    frames' fits with it free (from ``r0``) and no shadow; on ``LIGHT_FRAMES`` of them the light
-    (:func:`find_light`), and where it casts a shadow the radius again with it. ``r0`` where
-    fewer than 3 of the fits succeed."""
+def _radius_and_light(a: _Inputs, r0: float) -> tuple[float, float, tuple[float, float]]:
+    """The radius to hold, its standard error (px) and the light's direction: the median
+    radius of ``RADIUS_FRAMES`` frames' fits with it free (from ``r0``) and no shadow; on
+    ``LIGHT_FRAMES`` of them the light (:func:`find_light`), and where it casts a shadow the
+    radius again with it. ``r0`` (standard error NaN) where fewer than 3 of the fits succeed."""
     sub = _spread(len(a.idx), RADIUS_FRAMES)
 
-    def first_pass(light: tuple[float, float]):  # the frames' fits, those that succeeded, their median radius
+    def first_pass(light: tuple[float, float]):  # the frames' fits, and those that succeeded
         first = refine_frames(a.frames, a.bg, a.gains, a.idx[sub], a.start[sub], a.vel[sub], r0,
                               *a.blur, True, N_ITER, *a.table, *light, a.nodes)
-        good = np.flatnonzero(~np.isnan(first[:, 0]))
-        return first, good, float(np.median(first[good, 2])) if len(good) >= 3 else None
+        return first, np.flatnonzero(~np.isnan(first[:, 0]))
 
     light = (0.0, 0.5 * math.pi)  # first without a shadow
-    first, good, r = first_pass(light)
-    if r is None:
-        return r0, light
+    first, good = first_pass(light)
+    if len(good) < 3:
+        return r0, math.nan, light
     pick = good[_spread(len(good), LIGHT_FRAMES)]
     light = find_light(a.frames, a.bg, a.gains, a.idx[sub][pick], first[pick, :2],
-                       a.vel[sub][pick], r, a.blur, a.table, a.nodes)
+                       a.vel[sub][pick], float(np.median(first[good, 2])), a.blur, a.table,
+                       a.nodes)
     if light[1] < 0.5 * math.pi:  # the radius again, with the shadow
-        r = first_pass(light)[2] or r
-    return r, light
+        again = first_pass(light)
+        first, good = again if len(again[1]) >= 3 else (first, good)
+    radii = first[good, 2]
+    r = float(np.median(radii))
+    # standard error of a median: 1.2533 sd / sqrt(n), the sd from the MAD (robust)
+    return r, 1.2533 * 1.4826 * float(np.median(np.abs(radii - r))) / math.sqrt(len(radii)), light
 
 
 def find_light(frames, bg, gains, idx, centres, vel, r: float, blur: tuple[float, float],

@@ -10,7 +10,7 @@ from typing import Literal, get_args
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import RadiusFit
+from ._edge import SMALL_BALL_FIT, RadiusFit
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import fit_ball_radius, frame_quality
 
@@ -281,11 +281,17 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
     fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius) if \
         config.edge_model else (None, (0.0, 0.0))
     centre[method == CENTROID] += offset
-    refined, centre_se, light = refine_centres(frames, clean, gains, centre, method, fit)
-    if refined.any() and fit is not None:  # the refined centres' SD, not the centroids'
-        fit = fit._replace(centre_sd=stated_centre_sd(centre_se[refined]))
-        if light is not None and light[1] < fit.light[1]:  # the small-ball fit's shadow
-            fit = fit._replace(light=light)
+    small = refine_centres(frames, clean, gains, centre, method, fit)
+    refined = small.done
+    if refined.any() and fit is not None:
+        # the refined centres' SD, not the centroids'; the small-ball fit's radius (at 5 px
+        # RMS error 1.8 % against the edge model's 3.6 %: SMALL_FIT_SYSTEMATIC_PX) and light
+        fit = fit._replace(centre_sd=stated_centre_sd(small.se[refined]))
+        if math.isfinite(small.radius_se):
+            fit = fit._replace(radius=small.radius, radius_se=small.radius_se,
+                               method=SMALL_BALL_FIT)
+        if small.light is not None and small.light[1] < fit.light[1]:
+            fit = fit._replace(light=small.light)
     return fit, offset, refined
 
 
