@@ -114,9 +114,10 @@ def test_warmup_compiles_every_version_a_video_needs():
 
     _fast.warm()
     kernels = (_fast.measure_frames, _fast.edge_fits, _fast.quality_misfit,
-               _edge_kernel.varpro, _edge_kernel.fit_frame, _refine.refine_frames)
+               _edge_kernel.varpro, _edge_kernel.fit_frame, _refine.refine_frames,
+               _refine.light_costs)
     compiled = [len(k.signatures) for k in kernels]
-    assert compiled[-1] > 0  # the edge model's kernel is warmed too
+    assert compiled[-2] > 0 and compiled[-1] > 0  # the small-ball fit and its light's search
     frames = render(Scene(n_frames=60), Bounce(x_contact=0.02))
     frames.setflags(write=False)
     track = track_ball(frames, config=TrackerConfig(edge_model=False, min_contrast=12))
