@@ -451,11 +451,16 @@ _NO_SHADOW = 0.5 * math.pi
 
 
 def _every_other(px: _Pixels) -> _Pixels:
-    """Every other pixel of ``px`` (one frame's)."""
-    return px._replace(u=px.u[::2], v=px.v[::2], grey=px.grey[::2], bg=px.bg[::2],
-                       cx=px.cx[::2], cy=px.cy[::2], dir_u=px.dir_u[::2],
-                       dir_v=px.dir_v[::2], speed=px.speed[::2], frame=px.frame[::2],
-                       weight=px.weight[::2])
+    """Every other pixel of ``px`` (one frame's), in contiguous arrays (strided ones made the
+    compiled kernel compile another version on the first video with a large ball, after
+    ``bouncebayes warmup``)."""
+    def half(a: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(a[::2])
+
+    return px._replace(u=half(px.u), v=half(px.v), grey=half(px.grey), bg=half(px.bg),
+                       cx=half(px.cx), cy=half(px.cy), dir_u=half(px.dir_u),
+                       dir_v=half(px.dir_v), speed=half(px.speed), frame=half(px.frame),
+                       weight=half(px.weight))
 
 
 def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
