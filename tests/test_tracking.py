@@ -738,6 +738,21 @@ def test_reference_precision_is_the_scales_uncertainty():
     assert Calibration.from_reference((0, 0), (3, 4), 0.5).relative_sd is None
 
 
+def test_the_scales_uncertainty_follows_what_measured_the_radius():
+    from bouncebayes.tracking._edge import SMALL_FIT_SYSTEMATIC_PX, edge_model_systematic_px
+
+    # closed form: the radius' SE and the method's systematic error in quadrature, over it
+    edge = Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 0.6)
+    small = Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 0.6, "small-ball fit")
+    assert edge.relative_sd == pytest.approx(math.hypot(0.03, edge_model_systematic_px(5.0, 0.6))
+                                             / 5.0)
+    assert small.relative_sd == pytest.approx(math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX) / 5.0)
+    assert small.metres_per_px == edge.metres_per_px == pytest.approx(0.0256 / 10.0)
+    with pytest.raises(ValueError, match=r"`method` must be one of 'edge model', 'small-ball "
+                                         r"fit'; got 'coverage'"):
+        Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 0.6, "coverage")
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_rebound_speed_z_scores_of_a_rendered_campaign(seed, tmp_path):
     # one campaign, one calibration per video from the ball's edge; z with the stated

@@ -10,8 +10,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from .._validate import check_scalar
-from ._edge import radius_relative_sd
+from .._validate import check_choice, check_scalar
+from ._edge import EDGE_MODEL, SMALL_BALL_FIT, radius_relative_sd
 from ._track import Track
 
 
@@ -55,6 +55,7 @@ class Calibration:
         ``blur_px``, or ``"small-ball fit"``; ``Track.radius_fit.method``)."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
+        method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT))
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
             rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method)

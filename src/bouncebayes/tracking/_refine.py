@@ -25,9 +25,10 @@ Gauss-Newton on the ~150 pixels within about two blurs of the rim that are in th
 ``N_ITER`` step from the centre predicted from the two frames before, one more from the
 coverage centroid (or the frame-edge disk fit) where there is no prediction or it is off by
 more than ``PREDICT_PX`` (the impact). The radius first (free, with the centre, on
-``RADIUS_FRAMES`` frames spread over the video; their median then held); on
-``LIGHT_FRAMES`` of them the light's direction (:func:`find_light`), and where it casts a
-shadow the radius again with it.
+``RADIUS_FRAMES`` frames spread over the video, without the shadow: their median is the
+ball's radius, which gives a small ball's scale); on ``LIGHT_FRAMES`` of them the light's
+direction (:func:`find_light`), and where it casts a shadow those frames again with it, whose
+median radius the fits of every frame then hold.
 
 Measured over the 32 clips of ``benchmarks/paper_camera.py`` (radius 5 px; RMS error of the
 centres, mean over clips): the coverage centroid with the edge fits' offset 0.224 px; this
@@ -175,9 +176,11 @@ def _result(cx, cy, r, se_x, se_y, rss, n, b_1, b_2):
 @njit(cache=True)
 def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
                gt, dgt, az, el, nodes):
-    """One frame's fit from the centre ``(cx, cy)``, ``n_iter`` >= 1 steps: ok, centre, radius,
-    and the centre's formal standard errors (px: the residual's variance times the inverse
-    normal matrix)."""
+    """One frame's fit from the centre ``(cx, cy)``, ``n_iter`` Gauss-Newton steps, with the
+    shadow columns of a light from ``(az, el)`` (radians; none where ``el >= pi/2``): ok, and
+    :func:`_result` (the centre's formal standard errors: the residual's variance times the
+    inverse normal matrix, px). With ``n_iter = 0`` only the linear coefficients at the
+    starting centre: the residual sum of squares there and the shading's gradient."""
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
@@ -365,9 +368,8 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
             py = 2.0 * out[n - 1, 1] - out[n - 2, 1]
             if math.hypot(px - x0, py - y0) <= PREDICT_PX:
                 x0, y0, steps = px, py, n_iter
-        ok, fit = _fit_frame(frames[k], bg, gains[k], x0, y0, vel[n, 0],
-                                                vel[n, 1], r, sigma, exposure, r_free, steps,
-                                                z0, dzt, gt, dgt, az, el, nodes)
+        ok, fit = _fit_frame(frames[k], bg, gains[k], x0, y0, vel[n, 0], vel[n, 1], r, sigma,
+                             exposure, r_free, steps, z0, dzt, gt, dgt, az, el, nodes)
         if ok:
             out[n] = fit[:5]
     return out
@@ -406,13 +408,9 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     """Refine, in place, the centres of the frames where the ball was found (``method``
     ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
     the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
-    ``SMALL_RADIUS``) and its fitted blur at most ``CENTRE_FIT_BLUR`` of it. Returns the mask of
-    the frames refined (a failed fit keeps its centroid), their centres' formal standard
-    errors ``(n, 2)`` (px; NaN where not refined) and the light's direction ``(az, el)`` of
-    the shadow columns (radians; elevation pi/2: none; None where nothing was refined). First
-    ``RADIUS_FRAMES`` frames spread over the video with the radius free and no shadow; on
-    ``LIGHT_FRAMES`` of them the light (:func:`find_light`); where it casts a shadow, those
-    frames again with it; then every frame with the radius held at their median.
+    ``SMALL_RADIUS``) and its fitted blur at most ``CENTRE_FIT_BLUR`` of it (a failed fit
+    keeps its centroid); returns :class:`Refined`. First the radius and the light
+    (:func:`_radius_and_light`), then every frame with that radius held.
     ``clean(centres)``: the background model with the ball left out around ``centres``."""
     from ._edge import CENTRE_FIT_BLUR
     from ._measure import CENTROID, EDGE_FIT

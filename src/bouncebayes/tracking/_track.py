@@ -285,7 +285,7 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
     refined = small.done
     if refined.any() and fit is not None:
         # the refined centres' SD, not the centroids'; the small-ball fit's radius (at 5 px
-        # RMS error 1.8 % against the edge model's 3.6 %: SMALL_FIT_SYSTEMATIC_PX) and light
+        # RMS error 1.7 % against the edge model's 3.6 %: SMALL_FIT_SYSTEMATIC_PX) and light
         fit = fit._replace(centre_sd=stated_centre_sd(small.se[refined]))
         if math.isfinite(small.radius_se):
             fit = fit._replace(radius=small.radius, radius_se=small.radius_se,
