@@ -348,8 +348,9 @@ def test_grid_run_draws_its_joint_posterior_from_the_grid_with_a_spare_core(
 
 def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_path):
     """A campaign filmed like the paper's (224 x 64 px, a ball of radius 5 px): the scale from
-    the ball's edge is uncertain by ~10 % (docs/tracking.md §3), which each tracking record
-    says (``ball.warning``) and `run` says once for all the videos, with their count."""
+    the ball's radius is uncertain by more than 2 % (~2.6 % from the small-ball fit,
+    docs/tracking.md §2-3), which each tracking record says (``ball.warning``) and `run` says
+    once for all the videos, with their count."""
     from bouncebayes.pipeline import _track_videos
 
     sys.path.insert(0, str(Path(__file__).resolve().parent))
