@@ -739,14 +739,19 @@ def test_reference_precision_is_the_scales_uncertainty():
 
 
 def test_the_scales_uncertainty_follows_what_measured_the_radius():
-    from bouncebayes.tracking._edge import SMALL_FIT_SYSTEMATIC_PX, edge_model_systematic_px
+    from bouncebayes.tracking._edge import (
+        BLUR_PX3,
+        SMALL_FIT_SYSTEMATIC_PX,
+        edge_model_systematic_px,
+    )
 
     # closed form: the radius' SE and the method's systematic error in quadrature, over it
     edge = Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 0.6)
     small = Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 0.6, "small-ball fit")
     assert edge.relative_sd == pytest.approx(math.hypot(0.03, edge_model_systematic_px(5.0, 0.6))
                                              / 5.0)
-    assert small.relative_sd == pytest.approx(math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX) / 5.0)
+    assert small.relative_sd == pytest.approx(
+        math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * 0.6**3) / 5.0)
     assert small.metres_per_px == edge.metres_per_px == pytest.approx(0.0256 / 10.0)
     with pytest.raises(ValueError, match=r"`method` must be one of 'edge model', 'small-ball "
                                          r"fit'; got 'coverage'"):

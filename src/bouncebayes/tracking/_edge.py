@@ -121,8 +121,17 @@ EDGE_MODEL, SMALL_BALL_FIT = "edge model", "small-ball fit"  # RadiusFit.method
 # clips of benchmarks/paper_camera.py and the 17 scenarios of benchmarks/tracking_accuracy.py
 # where it runs (radius 5 px) its radius came out -6.8 to +4.0 % (RMS 1.7 %, 0.085 px; the
 # edge model's -4.6 to +6.6 %, RMS 3.6 %), the largest a frontally lit MJPEG clip and one whose
-# fitted blur is 0.48 px against 0.6; 0.13 px (2.6 % at 5 px) gives them |z| <= 2.6
+# fitted blur is 0.48 px against 0.6; 0.13 px (2.6 % at 5 px) gives them |z| <= 2.6. Plus, in
+# quadrature, the edge model's blur term BLUR_PX3 * sigma^3: under a 1.5 px blur (fitted
+# 1.46-1.75 px) the radius came out -3.9 to +1.1 %, a glossy ball's -8 to -15 % (z <= 1.6)
 SMALL_FIT_SYSTEMATIC_PX = 0.13
+# fitted sigma / r up to which the small-ball fit (._refine) runs: at 5 px under a 1.5 px blur
+# (fitted 0.29-0.35 of the true radius) its centres were 0.10-0.19 px against the centroids'
+# 0.11-0.68 and its radius -3.9..+1.1 % against -3.2..+2.1 % (benchmarks/tracking_accuracy.py;
+# without the shadow columns, before 2026-11-26, a glossy ball's centres went 0.65 -> 1.25 px).
+# Two glossy balls there, whose edge radius is 17 % small (fitted blur 0.42 of it), stay with
+# the edge model and its stated 28-30 %
+SMALL_FIT_BLUR = 0.4
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
@@ -135,10 +144,11 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
                        method: str = EDGE_MODEL) -> float:
     """The relative standard deviation of the ball's radius: its scatter across frames
     ``radius_se_px`` and the systematic error in quadrature: the edge model's
-    (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` where ``method`` is
-    ``SMALL_BALL_FIT``."""
-    systematic = SMALL_FIT_SYSTEMATIC_PX if method == SMALL_BALL_FIT else \
-        edge_model_systematic_px(radius_px, blur_px)
+    (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` and the blur term
+    ``BLUR_PX3 * blur_px^3`` in quadrature where ``method`` is ``SMALL_BALL_FIT``."""
+    blur = 0.0 if blur_px is None else blur_px
+    systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3) \
+        if method == SMALL_BALL_FIT else edge_model_systematic_px(radius_px, blur_px)
     return math.hypot(radius_se_px, systematic) / radius_px
 
 

@@ -408,21 +408,18 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     """Refine, in place, the centres of the frames where the ball was found (``method``
     ``CENTROID``, or ``EDGE_FIT`` for a ball cut by the frame edge: the fit takes the pixels in
     the frame) where the ball is small (the edge model's radius ``fit.radius`` at most
-    ``SMALL_RADIUS``) and its fitted blur at most ``CENTRE_FIT_BLUR`` of it (a failed fit
+    ``SMALL_RADIUS``) and its fitted blur at most ``SMALL_FIT_BLUR`` of it (a failed fit
     keeps its centroid); returns :class:`Refined`. First the radius and the light
     (:func:`_radius_and_light`), then every frame with that radius held.
     ``clean(centres)``: the background model with the ball left out around ``centres``."""
-    from ._edge import CENTRE_FIT_BLUR
+    from ._edge import SMALL_FIT_BLUR
     from ._measure import CENTROID, EDGE_FIT
 
     done = np.zeros(len(frames), bool)
     no_se = np.full((len(frames), 2), np.nan)
-    # not where the blur is a large part of the radius: there the edge model's blur trades
-    # against the shading near the rim (docs/tracking.md section 3) and this fit, holding that
-    # blur, errs more than the centroid (benchmarks/tracking_accuracy.py, radius 5 px, blur
-    # 1.5 px: glossy 0.65 -> 1.25 px, dark 0.13 -> 0.22 px, with fitted blurs of 18-23 % of the
-    # radius before the edge model's starts reached below the coverage radius; 31-41 % now)
-    if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > CENTRE_FIT_BLUR * fit.radius:
+    # not where the blur is a large part of the radius (SMALL_FIT_BLUR: up to a 1.5 px blur at
+    # 5 px): there the edge model's blur trades against the shading near the rim
+    if fit is None or not fit.radius <= SMALL_RADIUS or fit.sigma > SMALL_FIT_BLUR * fit.radius:
         return Refined(done, no_se)
     idx = np.flatnonzero((method == CENTROID) | (method == EDGE_FIT)).astype(np.int64)
     if len(idx) < 3:
