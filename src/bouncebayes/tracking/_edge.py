@@ -127,7 +127,8 @@ EDGE_MODEL, SMALL_BALL_FIT = "edge model", "small-ball fit"  # RadiusFit.method
 SMALL_FIT_SYSTEMATIC_PX = 0.13
 # fitted sigma / r up to which the small-ball fit (._refine) runs: at 5 px under a 1.5 px blur
 # (fitted 0.29-0.35 of the true radius) its centres were 0.10-0.19 px against the centroids'
-# 0.11-0.68 and its radius -3.9..+1.1 % against -3.2..+2.1 % (benchmarks/tracking_accuracy.py;
+# 0.12-0.68 and its radius -3.9..+1.1 % (glossy -8.3) against -3.2..+2.1 % (glossy -14.0)
+# (benchmarks/tracking_accuracy.py;
 # without the shadow columns, before 2026-11-26, a glossy ball's centres went 0.65 -> 1.25 px).
 # Two glossy balls there, whose edge radius is 17 % small (fitted blur 0.42 of it), stay with
 # the edge model and its stated 28-30 %
