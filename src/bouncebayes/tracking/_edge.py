@@ -117,7 +117,7 @@ UNCERTAIN_RADIUS = 0.02  # relative SD of the radius above which a warning says 
 
 EDGE_MODEL, SMALL_BALL_FIT = "edge model", "small-ball fit"  # RadiusFit.method
 # Systematic error of the small-ball fit's radius (._refine; a ball of radius <= 8 px with its
-# blur <= CENTRE_FIT_BLUR of it), px, in quadrature with its scatter across frames: over the 32
+# blur <= SMALL_FIT_BLUR of it), px, in quadrature with its scatter across frames: over the 32
 # clips of benchmarks/paper_camera.py and the 17 scenarios of benchmarks/tracking_accuracy.py
 # where it runs (radius 5 px) its radius came out -6.8 to +4.0 % (RMS 1.7 %, 0.085 px; the
 # edge model's -4.6 to +6.6 %, RMS 3.6 %), the largest a frontally lit MJPEG clip and one whose
@@ -133,6 +133,18 @@ SMALL_FIT_SYSTEMATIC_PX = 0.13
 # Two glossy balls there, whose edge radius is 17 % small (fitted blur 0.42 of it), stay with
 # the edge model and its stated 28-30 %
 SMALL_FIT_BLUR = 0.4
+
+
+def spread(n: int, k: int) -> np.ndarray:
+    """Up to ``k`` of ``range(n)``, evenly spaced (int64)."""
+    return np.unique(np.linspace(0, n - 1, min(k, n)).round()).astype(np.int64)
+
+
+def median_and_se(values: np.ndarray) -> tuple[float, float]:
+    """The median of ``values`` and its standard error: 1.2533 sd / sqrt(n), the sd from the
+    MAD (robust)."""
+    med = float(np.median(values))
+    return med, 1.2533 * 1.4826 * float(np.median(np.abs(values - med))) / math.sqrt(len(values))
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
@@ -579,8 +591,7 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
     # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
     # frames, spread: they only set the shared blur, exposure, light and the starting radius
-    pick = np.unique(np.linspace(0, len(args) - 1, min(FIRST_FRAMES, len(args))).round())
-    first = {int(i): fit_edge(*args[int(i)], r0) for i in pick}
+    first = {int(i): fit_edge(*args[int(i)], r0) for i in spread(len(args), FIRST_FRAMES)}
     ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
@@ -608,10 +619,7 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     fits = [f for f in second if f is not None]
     if len(fits) < 3:
         return None
-    radii = np.array([f.r for f in fits])
-    med = float(np.median(radii))
-    # standard error of a median: 1.2533 sd / sqrt(n), the sd from the MAD (robust)
-    se = 1.2533 * 1.4826 * float(np.median(np.abs(radii - med))) / math.sqrt(len(radii))
+    med, se = median_and_se(np.array([f.r for f in fits]))
     used = [i for i, f in enumerate(second) if f is not None]
     return RadiusFit(med, se, held[0], held[1], float(np.median([f.rms for f in fits])),
                      tuple(used), np.array([[f.cx, f.cy] for f in fits]), light=held[2:])

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ._edge import CENTRE_FIT_BLUR, MAX_FRAMES, RadiusFit, fit_radius
+from ._edge import CENTRE_FIT_BLUR, MAX_FRAMES, RadiusFit, fit_radius, spread
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
 
 FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
@@ -142,8 +142,7 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     cand = np.flatnonzero(ok)
     if len(cand) < 3:
         return None, (0.0, 0.0)
-    pick = cand[np.unique(np.linspace(0, len(cand) - 1, min(MAX_FRAMES, len(cand))).round()
-                          .astype(int))]
+    pick = cand[spread(len(cand), MAX_FRAMES)]
     vel = (centre[pick + 1] - centre[pick - 1]) / 2.0
     bg = clean(centre[pick])
     fit = fit_radius([frames[k] for k in pick], [gains[k] * bg for k in pick],

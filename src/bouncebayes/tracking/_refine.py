@@ -60,6 +60,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ._edge import median_and_se, spread
 from ._edge_kernel import _cho_solve, _cholesky, _shadow
 
 SMALL_RADIUS = 8.0   # px: balls up to this radius get refined centres (larger ones: centroids)
@@ -114,7 +115,8 @@ def _pixel(du, dv, r, inv_r, base, inv_s0, smear2, dir_u, dir_v, r_free, out, k,
     """One pixel at offset ``(du, dv)`` from the centre, into row ``k`` of ``out``: ``S``,
     ``cos t``, ``sin t``, ``X``, ``Y``, ``N``, then the derivatives of ``S``, ``X``, ``Y``,
     ``N``, ``cos t``, ``sin t`` with respect to ``cx``, then ``cy``, then ``r`` (where
-    ``r_free``). ``inv_r = 1 / r``, ``inv_s0 = base^-1/2`` (the blur without smear); ``z0,
+    ``r_free``), then (columns 24-27, for the shadow columns) ``rho``, the depth inside the
+    rim, the radial blur and the tangential variance. ``inv_r = 1 / r``, ``inv_s0 = base^-1/2`` (the blur without smear); ``z0,
     inv_dzt, gt, dgt``: the table of ``G(z) = E[sqrt(z + Z)_+]`` (grid start, 1 / step, values,
     derivative)."""
     rho = max(math.sqrt(du * du + dv * dv), 1e-9)
@@ -126,7 +128,9 @@ def _pixel(du, dv, r, inv_r, base, inv_s0, smear2, dir_u, dir_v, r_free, out, k,
         inv_s = 1.0 / math.sqrt(base + smear2 * cv * cv)
     else:
         var_t, inv_s = base, inv_s0
-    z = (r - 0.5 * var_t * inv_r - rho) * inv_s
+    u = r - 0.5 * var_t * inv_r - rho  # the depth inside the (blurred) rim
+    z = u * inv_s
+    out[k, 24], out[k, 25], out[k, 26], out[k, 27] = rho, u, 1.0 / inv_s, var_t
     gauss = math.exp(-0.5 * z * z)
     dens = gauss * _INV_SQRT_2PI * inv_s
     x, y = du * inv_r, dv * inv_r
@@ -160,7 +164,7 @@ def _pixel(du, dv, r, inv_r, base, inv_s0, smear2, dir_u, dir_v, r_free, out, k,
         out[k, 22] = out[k, 23] = 0.0
 
 
-_N_AUX = 24
+_N_AUX = 28
 
 
 @njit(cache=True)
@@ -232,16 +236,8 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
             jt[n_nl + 6, k] = out
             jt[n_nl + 7, k], jt[n_nl + 8, k] = out * ct, out * st
             if n_sh > 0:
-                du, dv = pu[k] - cx, pv[k] - cy
-                rho = max(math.sqrt(du * du + dv * dv), 1e-9)
-                if smear2 > 0.0:
-                    cv = ct * dir_u + st * dir_v
-                    var_t = base + smear2 * (1.0 - cv * cv)
-                    s_r = math.sqrt(base + smear2 * cv * cv)
-                else:
-                    var_t, s_r = base, math.sqrt(base)
-                uu = r - 0.5 * var_t / r - rho
-                _shadow(uu, s_r, r, ct, st, az_c, az_s, el, nodes, cp)
+                rho, var_t = aux[k, 24], aux[k, 27]
+                _shadow(aux[k, 25], aux[k, 26], r, ct, st, az_c, az_s, el, nodes, cp)
                 for j in range(n_sh):
                     jt[n_nl + N_LIN + j, k] = cp[j, 0]
                     # the depth grows by cos t, the angle by sin t / rho as cx grows
@@ -484,11 +480,6 @@ def _inputs(frames, clean, gains, centre, idx, fit) -> _Inputs:
                    _nodes(SHADOW_NODES))
 
 
-def _spread(n: int, k: int) -> np.ndarray:
-    """Up to ``k`` of ``range(n)``, evenly spread."""
-    return np.unique(np.linspace(0, n - 1, min(k, n)).round().astype(np.int64))
-
-
 def _radius_and_light(a: _Inputs, r0: float
                       ) -> tuple[float, float, float, tuple[float, float]]:
     """The radius the fits hold, the ball's radius and its standard error (px), and the light's
@@ -501,7 +492,7 @@ def _radius_and_light(a: _Inputs, r0: float
     radius where the shading is far from Lambert's (at 5 px, blur 0.7 px, a glossy ball with a
     clipped highlight and strong limb darkening: -4.7 to -5.4 % with, -0.3 to -1.2 % without);
     over the 49 rendered cases of docs/tracking.md §3 within 2 % in 45 without, 42 with."""
-    sub = _spread(len(a.idx), RADIUS_FRAMES)
+    sub = spread(len(a.idx), RADIUS_FRAMES)
 
     def first_pass(light: tuple[float, float]):  # the frames' fits, and those that succeeded
         first = refine_frames(a.frames, a.bg, a.gains, a.idx[sub], a.start[sub], a.vel[sub], r0,
@@ -512,11 +503,8 @@ def _radius_and_light(a: _Inputs, r0: float
     first, good = first_pass(light)
     if len(good) < 3:
         return r0, r0, math.nan, light
-    radii = first[good, 2]
-    r = float(np.median(radii))
-    # standard error of a median: 1.2533 sd / sqrt(n), the sd from the MAD (robust)
-    r_se = 1.2533 * 1.4826 * float(np.median(np.abs(radii - r))) / math.sqrt(len(radii))
-    pick = good[_spread(len(good), LIGHT_FRAMES)]
+    r, r_se = median_and_se(first[good, 2])
+    pick = good[spread(len(good), LIGHT_FRAMES)]
     light = find_light(a.frames, a.bg, a.gains, a.idx[sub][pick], first[pick, :2],
                        a.vel[sub][pick], r, a.blur, a.table, a.nodes)
     held = r

@@ -10,7 +10,7 @@ from typing import Literal, get_args
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import SMALL_BALL_FIT, RadiusFit
+from ._edge import SMALL_BALL_FIT, RadiusFit, spread
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import fit_ball_radius, frame_quality
 
@@ -139,7 +139,7 @@ def background_model(frames: np.ndarray, n_frames: int = 25) -> np.ndarray:
 
 def _background_index(n_frames: int, n: int) -> np.ndarray:
     """The frames of the background model: ``n`` evenly spaced over ``n_frames``."""
-    return np.unique(np.linspace(0, n_frames - 1, min(n_frames, n)).round()).astype(np.int64)
+    return spread(n_frames, n)
 
 
 MIN_CLEAR = 5  # frames clear of the ball a pixel's ball-free background needs (else the median)
