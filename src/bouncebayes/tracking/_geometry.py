@@ -47,7 +47,7 @@ class Calibration:
     def from_ball_diameter(cls, diameter: float, radius_px: float,
                            radius_se_px: float | None = None,
                            blur_px: float | None = None,
-                           method: str = "edge model") -> Calibration:
+                           method: str = EDGE_MODEL) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
         to which the systematic error of what measured it is added in quadrature

@@ -25,6 +25,7 @@ from ._geometry import (
     plane_axes,
     to_plane_frame,
 )
+from ._edge import EDGE_MODEL
 from ._measure import CENTROID, EDGE_FIT
 from ._track import Track, TrackerConfig, track_ball
 from ._video import VideoSource, read_frames, read_image
@@ -222,7 +223,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         calibration = Calibration.from_ball_diameter(
             diameter, track.ball_radius, track.ball_radius_se,
             fit.sigma if fit is not None else None,
-            fit.method if fit is not None else "edge model")
+            fit.method if fit is not None else EDGE_MODEL)
     if surface is None:
         surface = detect_surface(track.background)
         if surface is None:
