@@ -14,8 +14,10 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   sub-sample's coverage a linear ramp one sub-pixel wide (exact area to well below 0.01 px).
 - **Exposure**: the frame integrates the scene over ``exposure / fps`` seconds centred on
   ``k / fps``: ``n_sub`` ball positions along the true parabolic path are averaged (motion blur).
-- **Lens**: a Gaussian point-spread function of ``sigma_px`` pixels, applied to the
-  super-sampled image before pixel integration.
+- **Lens**: a point-spread function whose SD per axis is ``sigma_px`` pixels, applied to the
+  super-sampled image before pixel integration: a Gaussian (``psf="gaussian"``), or a lens out
+  of focus, a uniform disk of radius ``2 sigma_px`` (``psf="disk"``, sampled 8 x 8 per
+  super-sampled pixel).
 - **Background**: a continuous textured wall (sum of random-phase plane waves), the surface
   line with a darker plane below it; optional lit band above the surface, a static occluder
   (a vertical post in front of the ball) and a contact shadow under the ball.
@@ -82,6 +84,7 @@ class Shot:
     surface_v: float = 60.0           # image row of the surface line at u = 0
     # optics and exposure
     sigma_px: float = 0.0
+    psf: str = "gaussian"             # or "disk": out of focus (radius 2 sigma_px)
     exposure: float = 0.0             # fraction of the frame interval
     supersample: int = 6
     # lighting (camera frame: x right, y up, z to the camera)
@@ -187,8 +190,13 @@ def render(shot: Shot) -> np.ndarray:
     else:
         post = None
     sig = shot.sigma_px * s
-    blur = (lambda a: cv2.GaussianBlur(a, (0, 0), sig, borderType=cv2.BORDER_REFLECT)) \
-        if sig > 0 else (lambda a: a)
+    if sig > 0 and shot.psf == "disk":
+        kernel = _disk_kernel(2.0 * sig)
+        blur = (lambda a: cv2.filter2D(a, -1, kernel, borderType=cv2.BORDER_REFLECT))
+    elif sig > 0:
+        blur = (lambda a: cv2.GaussianBlur(a, (0, 0), sig, borderType=cv2.BORDER_REFLECT))
+    else:
+        blur = (lambda a: a)
 
     def down(a: np.ndarray) -> np.ndarray:
         return a.reshape(a.shape[0] // s, s, a.shape[1] // s, s).mean(axis=(1, 3))
@@ -234,6 +242,17 @@ def render(shot: Shot) -> np.ndarray:
             shot.read_noise**2 + shot.shot * np.maximum(img, 0.0))
         frames[k] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
     return _codec(frames, shot) if shot.codec else frames
+
+
+def _disk_kernel(radius: float, sub: int = 8) -> np.ndarray:
+    """A uniform disk of ``radius`` (super-sampled pixels) as a normalised convolution kernel,
+    each cell's coverage from ``sub x sub`` samples (float32)."""
+    n = int(math.ceil(radius)) + 1
+    y, x = np.mgrid[-n:n + 1, -n:n + 1].astype(float)
+    offs = (np.arange(sub) + 0.5) / sub - 0.5
+    k = sum(((x + dx) ** 2 + (y + dy) ** 2 <= radius * radius).astype(float)
+            for dy in offs for dx in offs)
+    return (k / k.sum()).astype(np.float32)
 
 
 def _shadow(shot: Shot, U, V, cu, cv) -> np.ndarray:

@@ -104,6 +104,17 @@ BLUR_PX3 = 0.09
 # radius and frontally lit clips came out +13 to +18 % (fitted blur 0.16-0.53 px, true 0.6),
 # and 2 px^2 / r^2 (0.08 px at r = 5) before that, which left |z| up to 6.7 there.
 SMALL_BALL_PX5 = 200.0
+# ... and, in quadrature, the blur's shape: the model's lens blur is a Gaussian; a lens out of
+# focus blurs into a disk (a pillbox PSF), whose edge profile is not an error function, and
+# where the blur is a large part of the radius the fit then trades it against the shading near
+# the rim. On tests/render_pbr.py with a disk PSF (its SD 0.7-1.3 px; sharp, or softened by a
+# 0.5 px Gaussian) and radius 10-20 px, the radius came out within 0.9 % up to a fitted blur of
+# 7 % of the radius, then -6.8 to +9.0 % from 9 % on (z up to 3.7 with the terms above: the
+# stated SD assumed the Gaussian; docs/tracking.md §3). So PSF_SHAPE_REL of the radius, ramped
+# from a fitted blur of PSF_SHAPE_FROM of the radius to PSF_SHAPE_TO (those |z| <= 1.6; a
+# Gaussian blur of 1.5 px at 10-15 px, errors <= 2.1 %, then states 4-7 %)
+PSF_SHAPE_REL = 0.06
+PSF_SHAPE_FROM, PSF_SHAPE_TO = 0.07, 0.12
 UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable
 # fitted sigma / r up to which the edge fits' centres correct the centroids' bias and the
 # small-ball fit (._refine) gives the centres: at 0.15 (as UNRELIABLE_BLUR until 2026-11-26) a
@@ -147,10 +158,22 @@ def median_and_se(values: np.ndarray) -> tuple[float, float]:
     return med, 1.2533 * 1.4826 * float(np.median(np.abs(values - med))) / math.sqrt(len(values))
 
 
-def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
-    """The edge model's systematic radius error (px) for a fitted blur ``blur_px``."""
+def psf_shape_px(radius_px: float, blur_px: float | None) -> float:
+    """The edge model's radius error (px) that the lens blur's unknown shape allows:
+    ``PSF_SHAPE_REL`` of the radius, ramped linearly from a fitted blur of ``PSF_SHAPE_FROM``
+    of the radius (zero) to ``PSF_SHAPE_TO`` (full)."""
     blur = 0.0 if blur_px is None else blur_px
-    return SYSTEMATIC_PX + BLUR_PX3 * blur**3 + SMALL_BALL_PX5 / radius_px**4
+    ramp = (blur / radius_px - PSF_SHAPE_FROM) / (PSF_SHAPE_TO - PSF_SHAPE_FROM)
+    return PSF_SHAPE_REL * radius_px * min(max(ramp, 0.0), 1.0)
+
+
+def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
+    """The edge model's systematic radius error (px) for a fitted blur ``blur_px``: the sum
+    of ``SYSTEMATIC_PX``, the blur term ``BLUR_PX3 blur^3`` and the small-ball term
+    ``SMALL_BALL_PX5 / r^4``, in quadrature with the blur's shape (:func:`psf_shape_px`)."""
+    blur = 0.0 if blur_px is None else blur_px
+    return math.hypot(SYSTEMATIC_PX + BLUR_PX3 * blur**3 + SMALL_BALL_PX5 / radius_px**4,
+                      psf_shape_px(radius_px, blur_px))
 
 
 def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None,

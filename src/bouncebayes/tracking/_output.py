@@ -283,7 +283,13 @@ def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
     unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (a small
     ball); None where neither."""
-    from ._edge import UNCERTAIN_RADIUS, UNRELIABLE_BLUR, radius_relative_sd
+    from ._edge import (
+        EDGE_MODEL,
+        PSF_SHAPE_FROM,
+        UNCERTAIN_RADIUS,
+        UNRELIABLE_BLUR,
+        radius_relative_sd,
+    )
 
     fit = track.radius_fit
     if fit is None:
@@ -294,6 +300,13 @@ def radius_warning(track: Track) -> str | None:
                 "px: its radius, and the --ball-diameter scale, may be off by several percent "
                 "(the stated uncertainty allows for it); give --reference for a better scale")
     rel = radius_relative_sd(fit.radius, fit.radius_se, fit.sigma, fit.method)
+    if rel > UNCERTAIN_RADIUS and fit.method == EDGE_MODEL \
+            and fit.sigma > PSF_SHAPE_FROM * fit.radius:
+        return (f"the ball's edge is blurred by {fit.sigma:.2g} px for a radius of "
+                f"{fit.radius:.3g} px: its radius depends on the blur's shape (a lens out of "
+                "focus blurs into a disk, not a Gaussian), so the --ball-diameter scale is "
+                f"uncertain by +-{100 * rel:.2g} % (its stated uncertainty); give --reference "
+                "for a better scale")
     if rel > UNCERTAIN_RADIUS:
         return (f"the ball is {fit.radius:.3g} px in radius: too few pixels at its edge to "
                 f"tell its radius from the blur and shading better than +-{100 * rel:.2g} % "
