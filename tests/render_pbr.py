@@ -190,6 +190,8 @@ def render(shot: Shot) -> np.ndarray:
     else:
         post = None
     sig = shot.sigma_px * s
+    if shot.psf not in ("gaussian", "disk"):
+        raise ValueError(f"psf must be 'gaussian' or 'disk'; got {shot.psf!r}")
     if sig > 0 and shot.psf == "disk":
         kernel = _disk_kernel(2.0 * sig)
         blur = (lambda a: cv2.filter2D(a, -1, kernel, borderType=cv2.BORDER_REFLECT))

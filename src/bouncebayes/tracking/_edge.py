@@ -112,7 +112,7 @@ SMALL_BALL_PX5 = 200.0
 # 7 % of the radius, then -6.8 to +9.0 % from 9 % on (z up to 3.7 with the terms above: the
 # stated SD assumed the Gaussian; docs/tracking.md §3). So PSF_SHAPE_REL of the radius, ramped
 # from a fitted blur of PSF_SHAPE_FROM of the radius to PSF_SHAPE_TO (those |z| <= 1.6; a
-# Gaussian blur of 1.5 px at 10-15 px, errors <= 2.1 %, then states 4-7 %)
+# Gaussian blur of 1.5 px at 10-15 px, errors <= 2.1 %, is then stated as 3.5-7.4 %)
 PSF_SHAPE_REL = 0.06
 PSF_SHAPE_FROM, PSF_SHAPE_TO = 0.07, 0.12
 UNRELIABLE_BLUR = 0.15  # fitted sigma / r above which the radius is called unreliable

@@ -281,8 +281,8 @@ def _ball_record(tr: Track) -> dict[str, object]:
 
 def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
-    unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (a small
-    ball); None where neither."""
+    unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (blurred
+    enough that the blur's shape matters, or a small ball); None where neither."""
     from ._edge import (
         EDGE_MODEL,
         PSF_SHAPE_FROM,
