@@ -857,6 +857,71 @@ def test_run_writes_the_same_tracking_record_as_track(noisy, tmp_path, capsys):
     assert (stage / "tracking" / "throw.overlay.png").exists()
 
 
+@pytest.mark.parametrize("quality", [25, 55, 90, 100])
+def test_the_jpeg_quality_of_jpeg_frames_is_read(quality, tmp_path):
+    from bouncebayes.tracking._video import jpeg_quality
+
+    # expected: the quality libjpeg (through OpenCV) was asked to encode at; its tables are
+    # the IJG table scaled (T.81 Annex K.1), which is what jpeg_quality compares them with
+    frame = np.random.default_rng(1).integers(0, 256, (48, 64), dtype=np.uint8)
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for k in range(3):
+        cv2.imwrite(str(folder / f"f{k}.jpg"), frame, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    assert jpeg_quality(folder) == pytest.approx(quality, abs=0.5)
+
+
+def test_the_jpeg_quality_of_a_stream_is_its_frames_median(tmp_path):
+    from bouncebayes.tracking._video import jpeg_quality
+
+    # three JPEG frames at qualities 40, 40, 70 between bytes of a container (with a stray
+    # FF D8 FF that starts no JPEG image): the median, 40; an MJPEG file of OpenCV's writer is
+    # read (a quality, whatever its encoder's tables); frames that are not JPEG-coded (PNG,
+    # MPEG-4) and a JPEG cut inside its table give none
+    frame = np.random.default_rng(2).integers(0, 256, (48, 64), dtype=np.uint8)
+    jpg = [cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, q])[1].tobytes()
+           for q in (40, 40, 70)]
+    (tmp_path / "stream.avi").write_bytes(b"RIFF\xff\xd8\xff\x00junk" + b"00dc".join(jpg))
+    assert jpeg_quality(tmp_path / "stream.avi") == pytest.approx(40.0, abs=0.5)
+    (tmp_path / "cut.avi").write_bytes(jpg[0][:30])
+    assert jpeg_quality(tmp_path / "cut.avi") is None
+    mjpg = write_video(np.stack([frame] * 5), tmp_path / "m.avi", 1000.0, "MJPG")
+    assert 1.0 <= jpeg_quality(mjpg) <= 100.0
+    assert jpeg_quality(write_video(np.stack([frame] * 5), tmp_path / "m.mp4", 1000.0,
+                                    "mp4v")) is None
+    assert jpeg_quality(write_png_sequence([frame] * 2, tmp_path / "png")) is None
+    assert jpeg_quality(tmp_path / "missing.avi") is None
+
+
+def test_strongly_compressed_frames_get_a_warning(tmp_path, capsys):
+    from render_pbr import Shot, render
+
+    from bouncebayes.tracking import compression_warning, read_frames
+
+    # a short clip whose frames are JPEG files at quality 40 (a rendered 10 px ball came out
+    # +7.6 % there, docs/tracking.md §3): the record and `track` say so; at 90 nothing is said
+    shot = Shot(width=120, height=80, radius_px=8.0, n_frames=30, surface_v=72.0,
+                slope_deg=0.0, sigma_px=0.5, supersample=3, seed=4)
+    for quality in (40, 90):
+        folder = tmp_path / f"q{quality}"
+        folder.mkdir()
+        for k, f in enumerate(render(shot)):
+            cv2.imwrite(str(folder / f"f{k:03d}.jpg"), f, [cv2.IMWRITE_JPEG_QUALITY, quality])
+        source = read_frames(folder, fps=1000.0)
+        assert source.jpeg_quality == pytest.approx(quality, abs=0.5)
+        said = compression_warning(source)
+        assert (said is not None) == (quality == 40)
+        if quality == 40:
+            assert "quality ~40" in said and "--reference" in said
+            out = tmp_path / "out"
+            assert run_cli(["track", str(folder), "--out", str(out), "--fps", "1000",
+                            "--surface", "0,72,100,72"]) == 0
+            assert f"warning: {said}" in capsys.readouterr().out
+            record = json.loads((out / "q40.track.json").read_text())
+            assert record["jpeg_quality"] == pytest.approx(40.0)
+            assert record["compression_warning"] == said
+
+
 def test_bad_calibration_input_is_one_line_naming_the_option(tmp_path):
     with pytest.raises(ValueError, match=r"`--reference` 1,2,3,4,0: `reference length` must be "
                                          r"a finite number > 0 m"):

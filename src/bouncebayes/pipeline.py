@@ -88,12 +88,13 @@ def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
                   progress: bool) -> Path:
     """Track every video (or image-sequence folder) of ``data`` into ``stage/trajectories``,
     with an overlay image per video in ``stage/tracking``; unusable videos are listed."""
-    from .tracking import radius_warning, track_video, write_track_files
+    from .tracking import compression_warning, radius_warning, track_video, write_track_files
 
     inputs = video_inputs(data)
     folder = stage / "trajectories"
     tracked = 0
     warned: list[tuple[str, str]] = []  # (video, the scale's warning) (tracking record)
+    coded: list[tuple[str, str]] = []   # (video, the compression's warning)
     for path in _bar(inputs, progress, "videos"):
         try:
             video = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter)
@@ -108,10 +109,13 @@ def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
                                     "per-pixel median of frames"})
         if (warning := radius_warning(video.track)) is not None:
             warned.append((path.name, warning))
+        if (warning := compression_warning(video.source)) is not None:
+            coded.append((path.name, warning))
         tracked += 1
-    if warned:  # one line, not one a video: a campaign's videos share their camera
-        log(f"  warning, {len(warned)} of {tracked} videos (first {warned[0][0]}): "
-            f"{warned[0][1]}")
+    for said in (warned, coded):  # one line, not one a video: a campaign shares its camera
+        if said:
+            log(f"  warning, {len(said)} of {tracked} videos (first {said[0][0]}): "
+                f"{said[0][1]}")
     if not tracked:
         raise InputFileError(data, "no video could be tracked (each is listed above with the "
                                    "reason)")

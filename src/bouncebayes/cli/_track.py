@@ -204,8 +204,9 @@ def settings_record(args: argparse.Namespace) -> dict:
 
 def summary_line(result, files: dict[str, Path]) -> str:
     """What was found in one video, and where it went (and a warning where the scale comes
-    from the ball's radius and that is unreliable or uncertain)."""
-    from ..tracking import EDGE_FIT, radius_warning
+    from the ball's radius and that is unreliable or uncertain, and where the frames are
+    strongly compressed)."""
+    from ..tracking import EDGE_FIT, compression_warning, radius_warning
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, found = len(tr.found), int(tr.found.sum())
@@ -219,4 +220,5 @@ def summary_line(result, files: dict[str, Path]) -> str:
             f"{srf.angle:.2f}{angle} deg ({srf.source}), {src.fps:g} fps ({src.fps_source})\n"
             f"  -> {files['trajectory']}  {files['overlay']}  {files['record']}"
             + (f"\n  warning: {warning}" if cal.source != "reference"
-               and (warning := radius_warning(tr)) else ""))
+               and (warning := radius_warning(tr)) else "")
+            + (f"\n  warning: {coded}" if (coded := compression_warning(src)) else ""))

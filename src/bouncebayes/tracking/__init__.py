@@ -69,6 +69,7 @@ from ._measure import METHOD_NAMES as METHOD_NAMES
 from ._measure import NOT_FOUND as NOT_FOUND
 from ._output import PAPER_BALL_DIAMETER as PAPER_BALL_DIAMETER
 from ._output import TrackedVideo as TrackedVideo
+from ._output import compression_warning as compression_warning
 from ._output import radius_warning as radius_warning
 from ._output import overlay_image as overlay_image
 from ._output import track_record as track_record
@@ -90,7 +91,8 @@ from ._video import read_image as read_image
 __all__ = ["CENTROID", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND",
            "PAPER_BALL_DIAMETER", "POLARITIES", "VIDEO_SUFFIXES", "Calibration",
            "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
-           "TrackerConfig", "VideoSource", "background_model", "detect_surface",
+           "TrackerConfig", "VideoSource", "background_model", "compression_warning",
+           "detect_surface",
            "overlay_image", "plane_axes", "radius_warning", "read_frames", "read_image",
            "to_plane_frame",
            "track_ball", "track_record", "track_video", "warm_kernels", "write_track_files"]

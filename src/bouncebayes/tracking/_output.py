@@ -279,6 +279,26 @@ def _ball_record(tr: Track) -> dict[str, object]:
             "warning": radius_warning(tr)}
 
 
+# JPEG quality below which the frames are called strongly compressed: rendered (tests/
+# render_pbr.py, each frame a JPEG; docs/tracking.md §3) at quality 70 every scale had |z| <=
+# 1.9 over 54 scenes, at 50 a 5 px ball's up to 3.6 and at 40 a 10 px ball's 4.7 (+7.6 %)
+STRONG_COMPRESSION = 60.0
+
+
+def compression_warning(source: VideoSource) -> str | None:
+    """A sentence where the frames are JPEG-coded (MJPEG, JPEG files) at a quality below
+    ``STRONG_COMPRESSION`` (:func:`._video.jpeg_quality`); None otherwise (and for codecs
+    whose quality is not read: MPEG-4, H.264)."""
+    q = source.jpeg_quality
+    if q is None or q >= STRONG_COMPRESSION:
+        return None
+    return (f"the frames are JPEG-compressed at quality ~{q:.0f} (below "
+            f"{STRONG_COMPRESSION:.0f}): the codec rings at the ball's edge, and its radius (the "
+            "--ball-diameter scale) and centres may be off by several times their stated "
+            "uncertainty (a rendered 10 px ball +7.6 % at quality 40); give --reference, and "
+            "film with less compression if you can")
+
+
 def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
     unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (blurred
@@ -331,6 +351,9 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
         "bouncebayes_version": __version__,
         "frames": n, "width": w, "height": h,
         "fps": src.fps, "fps_source": src.fps_source,
+        # the JPEG quality of MJPEG or JPEG frames (None: not JPEG-coded, or not read), and
+        # a warning where it is low
+        "jpeg_quality": src.jpeg_quality, "compression_warning": compression_warning(src),
         "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
                     "threshold_grey": round(tr.threshold, 3),
                     "centre_offset_px": [round(v, 4) for v in tr.centre_offset]},

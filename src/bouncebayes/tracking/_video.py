@@ -31,6 +31,7 @@ class VideoSource:
     frames: np.ndarray
     fps: float
     fps_source: str
+    jpeg_quality: float | None = None  # of JPEG-coded frames (MJPEG, JPEG files): jpeg_quality()
 
 
 def read_frames(path: str | os.PathLike, *, fps: float | None = None) -> VideoSource:
@@ -59,7 +60,92 @@ def read_frames(path: str | os.PathLike, *, fps: float | None = None) -> VideoSo
         raise InputFileError(path, f"frame rate unknown ({what}): give it with --fps")
     frames.setflags(write=False)
     name = path.name if path.is_dir() else path.stem
-    return VideoSource(path=path, name=name, frames=frames, fps=float(rate), fps_source=source)
+    return VideoSource(path=path, name=name, frames=frames, fps=float(rate), fps_source=source,
+                       jpeg_quality=jpeg_quality(path))
+
+
+# The IJG (libjpeg) luminance quantisation table at quality 50, ITU-T T.81 Annex K.1 (row by
+# row); a JPEG stream stores its tables in zig-zag order (T.81 figure A.6)
+_IJG_LUMA = np.array([16, 11, 10, 16, 24, 40, 51, 61, 12, 12, 14, 19, 26, 58, 60, 55,
+                      14, 13, 16, 24, 40, 57, 69, 56, 14, 17, 22, 29, 51, 87, 80, 62,
+                      18, 22, 37, 56, 68, 109, 103, 77, 24, 35, 55, 64, 81, 104, 113, 92,
+                      49, 64, 78, 87, 103, 121, 120, 101, 72, 92, 95, 98, 112, 100, 103, 99],
+                     float).reshape(8, 8)
+_ZIGZAG = sorted(((i, j) for i in range(8) for j in range(8)),
+                 key=lambda ij: (ij[0] + ij[1], ij[0] if (ij[0] + ij[1]) % 2 else ij[1]))
+_IJG_LUMA_ZIGZAG = np.array([_IJG_LUMA[i, j] for i, j in _ZIGZAG])
+_SCAN_BYTES = 1 << 22  # bytes of a video file searched for its first JPEG frame
+
+
+def jpeg_quality(path: str | os.PathLike) -> float | None:
+    """The JPEG quality of a video's frames (MJPEG) or of a folder's first JPEG file: the IJG
+    quality (1-100) whose luminance table is as coarse as the first frame's (the median
+    ratio of the two tables, libjpeg's scaling ``S = 5000 / Q`` below 50, ``200 - 2 Q``
+    above); None where the frames are not JPEG-coded (PNG, TIFF, MPEG-4, H.264, ...) or
+    no table is found. Written here: OpenCV decodes the frames and hides their coding."""
+    path = Path(path)
+    try:
+        if path.is_dir():
+            jpgs = sorted((p for p in path.iterdir() if p.is_file()
+                           and p.suffix.lower() in (".jpg", ".jpeg")), key=_natural_key)
+            data = jpgs[0].read_bytes()[:_SCAN_BYTES] if jpgs else b""
+        else:
+            with path.open("rb") as f:
+                data = f.read(_SCAN_BYTES)
+    except OSError:
+        return None
+    qualities = [_ijg_quality(t) for t in _luma_tables(data, _TABLES)]
+    return round(float(np.median(qualities)), 1) if qualities else None
+
+
+_TABLES = 25  # frames whose tables are read (an encoder's rate control may vary them)
+
+
+def _ijg_quality(table: np.ndarray) -> float:
+    """The IJG quality whose luminance table is as coarse as ``table`` (zig-zag order)."""
+    keep = (table > 1) & (table < 255)  # clipped entries say nothing of the scale
+    if keep.sum() < 8:
+        return 100.0 if table.max() <= 1 else 1.0
+    scale = float(np.median(100.0 * table[keep] / _IJG_LUMA_ZIGZAG[keep]))
+    quality = 5000.0 / scale if scale > 100.0 else (200.0 - scale) / 2.0
+    return min(max(quality, 1.0), 100.0)
+
+
+def _luma_tables(data: bytes, limit: int) -> list[np.ndarray]:
+    """The luminance (id 0) quantisation tables (zig-zag order) of up to ``limit`` JPEG
+    images in ``data``, each found by following its chain of marker segments from the start of
+    image (T.81 B.1.1) to a DQT, so that bytes of another codec that happen to read FF D8 FF
+    are not taken for one."""
+    tables: list[np.ndarray] = []
+    start = data.find(b"\xff\xd8\xff")
+    while start >= 0 and len(tables) < limit:
+        if (table := _first_luma_table(data, start)) is not None:
+            tables.append(table)
+        start = data.find(b"\xff\xd8\xff", start + 3)
+    return tables
+
+
+def _first_luma_table(data: bytes, start: int) -> np.ndarray | None:
+    """The luminance table of the JPEG image whose start-of-image marker is at ``start``."""
+    i = start + 2
+    while i + 4 <= len(data) and data[i] == 0xFF:
+        marker, length = data[i + 1], int.from_bytes(data[i + 2:i + 4], "big")
+        if marker in (0xD8, 0xD9, 0xDA) or length < 2 or i + 2 + length > len(data):
+            break  # another start of image, its end, a scan: no table before it
+        if marker == 0xDB:
+            seg, k = data[i + 4:i + 2 + length], 0
+            while k < len(seg):
+                precision, ident = seg[k] >> 4, seg[k] & 15
+                size = 128 if precision else 64
+                if k + 1 + size > len(seg):
+                    break
+                raw = seg[k + 1:k + 1 + size]
+                values = np.frombuffer(raw, ">u2" if precision else "u1").astype(float)
+                if ident == 0:
+                    return values
+                k += 1 + size
+        i += 2 + length
+    return None
 
 
 def _read_video(path: Path) -> tuple[np.ndarray, float | None]:
