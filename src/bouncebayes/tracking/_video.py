@@ -74,20 +74,19 @@ _IJG_LUMA = np.array([16, 11, 10, 16, 24, 40, 51, 61, 12, 12, 14, 19, 26, 58, 60
 _ZIGZAG = sorted(((i, j) for i in range(8) for j in range(8)),
                  key=lambda ij: (ij[0] + ij[1], ij[0] if (ij[0] + ij[1]) % 2 else ij[1]))
 _IJG_LUMA_ZIGZAG = np.array([_IJG_LUMA[i, j] for i, j in _ZIGZAG])
-_SCAN_BYTES = 1 << 22  # bytes of a video file searched for its first JPEG frame
+_SCAN_BYTES = 1 << 22  # bytes of a video file searched for its first JPEG frames
 
 
 def jpeg_quality(path: str | os.PathLike) -> float | None:
-    """The JPEG quality of a video's frames (MJPEG) or of a folder's first JPEG file: the IJG
-    quality (1-100) whose luminance table is as coarse as the first frame's (the median
-    ratio of the two tables, libjpeg's scaling ``S = 5000 / Q`` below 50, ``200 - 2 Q``
-    above); None where the frames are not JPEG-coded (PNG, TIFF, MPEG-4, H.264, ...) or
+    """The JPEG quality of a video's frames (MJPEG) or of a folder's first JPEG file: the median
+    over up to ``_TABLES`` frames of the IJG quality (1-100) whose luminance table is as coarse
+    as the frame's (the median ratio of the two tables, libjpeg's scaling ``S = 5000 / Q``
+    below 50, ``200 - 2 Q`` above); None where the frames are not JPEG-coded (PNG, TIFF, MPEG-4, H.264, ...) or
     no table is found. Written here: OpenCV decodes the frames and hides their coding."""
     path = Path(path)
     try:
         if path.is_dir():
-            jpgs = sorted((p for p in path.iterdir() if p.is_file()
-                           and p.suffix.lower() in (".jpg", ".jpeg")), key=_natural_key)
+            jpgs = [p for p in _frame_files(path) if p.suffix.lower() in (".jpg", ".jpeg")]
             data = jpgs[0].read_bytes()[:_SCAN_BYTES] if jpgs else b""
         else:
             with path.open("rb") as f:
@@ -179,9 +178,14 @@ def _natural_key(p: Path) -> tuple:
     return tuple(int(s) if i % 2 else s for i, s in enumerate(parts))
 
 
+def _frame_files(folder: Path) -> list[Path]:
+    """The image frames of ``folder``, sorted naturally."""
+    return sorted((p for p in folder.iterdir()
+                   if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key)
+
+
 def _read_folder(folder: Path) -> tuple[np.ndarray, None]:
-    files = sorted((p for p in folder.iterdir()
-                    if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key)
+    files = _frame_files(folder)
     if not files:
         raise InputFileError(folder, f"no image frames ({', '.join(IMAGE_SUFFIXES)}) in this "
                                      "folder")
