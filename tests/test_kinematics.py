@@ -866,6 +866,100 @@ def test_gates_reject_the_generator_bounces_fitted_without_drag(tmp_path):
     assert any("set `drag = \"quadratic\"`" in m for _, m in found.failures)
 
 
+# ------------------------------------------------------- the fall against gravity: the scale
+
+def test_a_flights_fall_is_g_times_the_length_scale_with_honest_errors():
+    """Closed form: every length s times the true one makes the fall s g. Over 150 bounces
+    (300 flights, lengths x 1.03, 0.2 mm noise) the z-scores of the fall against 1.03 g must
+    have mean within 4/sqrt(n) of 0 and SD within [0.85, 1.15]."""
+    rng = np.random.default_rng(31)
+    z = []
+    for _ in range(150):
+        t, pos = bounce(rng)
+        fall = fit_arrays(t, 1.03 * pos).fall
+        z += [(v - 1.03 * G) / s for v, s in zip(fall.value, fall.se, strict=True)]
+    z = np.array(z)
+    assert abs(z.mean()) < 4 / math.sqrt(z.size) and 0.85 < z.std() < 1.15, (z.mean(), z.std())
+
+
+def test_the_fall_with_the_balls_drag_added_back_is_g():
+    """Truth: g. A table-tennis ball at 5 m/s (solve_ivp with drag, independent of the
+    package) fitted with constant acceleration falls ~3 m/s^2 slower before the impact (drag
+    against the fall) and faster after; with the ball's drag coefficient known, the mean drag
+    along each flight is added back and the falls are centred on g with the stated errors."""
+    from bouncebayes.kinematics import gravity_scale
+
+    rng = np.random.default_rng(32)
+    data = [drag_bounce(rng, 0.05) for _ in range(30)]
+    raw = np.array([fit_arrays(t, pos, p_min=1e-300).fall.value for t, pos in data])
+    assert raw[:, 0].mean() < G - 2.0 and raw[:, 1].mean() > G + 0.5
+    falls = [fit_arrays(t, pos, p_min=1e-300, drag_k=TABLE_TENNIS_K).fall for t, pos in data]
+    z = np.array([(np.array(f.value) - G) / np.array(f.se) for f in falls])
+    assert np.all(np.abs(z.mean(axis=0)) < 4 / math.sqrt(len(falls))), z.mean(axis=0)
+    assert 0.5 < z.std() < 1.3, z.std()
+    # the campaign: the drag coefficient's and the lift's uncertainty are stated beside it
+    campaign = gravity_scale(falls, G)
+    assert campaign.drag_corrected and campaign.systematic > 0
+    assert abs(campaign.scale - 1) < 3 * campaign.scale_sd
+
+
+def test_a_campaign_whose_scale_is_off_is_told_so_in_words():
+    """Lengths 4 % too long (a --ball-diameter scale off by that, stated as +-0.5 %): the fall
+    says 4 % +- its error, and the summary warns; stated as +-5 %, it agrees."""
+    from bouncebayes.kinematics import gravity_scale
+
+    rng = np.random.default_rng(33)
+    falls = [fit_arrays(t, 1.04 * pos).fall for t, pos in (bounce(rng) for _ in range(10))]
+    off = gravity_scale(falls, G, [0.005] * 10)
+    assert abs(off.scale - 1.04) < 3 * off.scale_sd and off.scale_sd < 0.01
+    assert not off.agrees and off.z > 3
+    assert re.search(r"the lengths are 4\.\d\d % too long .*\n  warning: that is \d+\.\d SD "
+                     r"from the tracker's stated scale uncertainty \(\+- 0\.50 %\)",
+                     off.summary()), off.summary()
+    wide = gravity_scale(falls, G, [0.05] * 10)
+    assert wide.agrees and "warning" not in wide.summary()
+    assert "no scale uncertainty was stated" in gravity_scale(falls, G).summary()
+    assert gravity_scale([], G) is None
+
+
+def test_scale_gravity_divides_the_speeds_by_the_fall_and_states_its_error(tmp_path):
+    """An experiment with ``scale = "gravity"`` in [trajectories] on trajectories whose
+    lengths are 5 % too long: every speed of the table is the tracked one divided by the
+    fall's factor (within 3 of its SDs of 1.05), angles unchanged, the factor's relative SD
+    written as scale_rel_sd and recorded in the table's provenance; the default ("tracked")
+    keeps the speeds and logs the check."""
+    import tomllib
+
+    from bouncebayes.data import load_trials, parse_experiment
+    from bouncebayes.kinematics import trial_table_from_folder
+
+    rng = np.random.default_rng(34)
+    folder = tmp_path / "tracks"
+    folder.mkdir()
+    for i in range(8):
+        t, pos = bounce(rng)
+        write_csv(folder / f"b{i}.csv", t, 1.05 * pos)
+    text = PIPELINE_TOML.format(rate=1000.0, noise=2e-4, flight=0.05, inclination=0.0)
+    runs = {}
+    for scale in ("tracked", "gravity"):
+        e = parse_experiment(tomllib.loads(text + f'[trajectories]\nscale = "{scale}"\n'))
+        lines: list[str] = []
+        out = tmp_path / f"{scale}.csv"
+        trial_table_from_folder(folder, e, out, log=lines.append)
+        runs[scale] = (load_trials(out, e), "\n".join(lines))
+    (tracked, said), (corrected, told) = runs["tracked"], runs["gravity"]
+    assert "gravity: the 16 free flights fall at" in said and "divided" not in said
+    record = corrected.provenance["kinematics"]["gravity"]
+    factor, sd = record["applied_factor"], record["applied_rel_sd"]
+    assert abs(factor - 1.05) < 3 * sd and sd == pytest.approx(record["scale_sd"])
+    assert f"every speed divided by {factor:.4f} (the fall's alone)" in told
+    np.testing.assert_allclose(corrected.rebound_speed, tracked.rebound_speed / factor)
+    np.testing.assert_allclose(corrected.incidence_speed, tracked.incidence_speed / factor)
+    np.testing.assert_array_equal(corrected.rebound_angle, tracked.rebound_angle)
+    np.testing.assert_allclose(corrected.scale_rel_sd, sd)
+    assert np.isnan(tracked.scale_rel_sd).all()
+
+
 # ------------------------------------------------------------------------- gates, settings
 
 def test_fit_config_checks_itself():

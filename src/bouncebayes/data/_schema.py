@@ -132,6 +132,12 @@ SECTIONS: dict[str, dict[str, Key]] = {
                            choices=("m", "cm", "mm")),
         "drag": Key(str, "air drag in the free-flight fits", "", "none",
                     choices=("none", "quadratic")),
+        "scale": Key(str, "length scale of the trial table: `tracked` keeps the trajectories' "
+                          "own and checks it against the free flights' fall (a warning where "
+                          "they disagree); `gravity` also corrects every length and speed by "
+                          "the fall (combined with the tracker's stated scale uncertainty "
+                          "where the two agree), which then sets `scale_rel_sd`", "",
+                     "tracked", choices=("tracked", "gravity")),
     },
     "synth": {
         "n": Key(int, "number of bounces of a synthetic campaign", "", 55, low=1.0),

@@ -20,6 +20,11 @@ Pipeline: :func:`read_trajectory` (parse, clean rows, check units, scale, rotate
 ``bouncebayes.data.load_trials``); :func:`kinematics_from_folder` runs a folder (with an
 optional ``spin.csv`` of measured spins), :func:`trial_table_from_folder` the whole step for an
 experiment. :func:`write_trajectory` writes the trajectory format the reader reads.
+
+Scale: each bounce's :class:`Fall` (its flights' fitted acceleration, drag added back where the
+ball is known) and :func:`gravity_scale` (the campaign's, against ``g``) measure the length
+scale independently of the tracker's calibration; :func:`trial_table_from_folder` checks the
+one against the other and, with ``scale = "gravity"`` in [trajectories], corrects the lengths.
 """
 
 from ..data import write_trajectory as write_trajectory
@@ -36,7 +41,11 @@ from ._fit import find_bounces as find_bounces
 from ._fit import fit_bounces as fit_bounces
 from ._fit import fit_kinematics as fit_kinematics
 from ._flight import DRAG_MIN_POINTS as DRAG_MIN_POINTS
+from ._gravity import Fall as Fall
+from ._gravity import GravityScale as GravityScale
+from ._gravity import gravity_scale as gravity_scale
 from ._folder import FolderKinematics as FolderKinematics
+from ._folder import rescaled_by_fall as rescaled_by_fall
 from ._folder import ball_drag as ball_drag
 from ._folder import kinematics_from_folder as kinematics_from_folder
 from ._folder import trial_table_from_folder as trial_table_from_folder
@@ -58,8 +67,9 @@ from ._spin import read_spin_table as read_spin_table
 __all__ = ["DRAG_MIN_POINTS", "DRAG_MODELS", "LENGTH_UNITS", "MIN_TRACKED_POINTS",
            "OUTLIER_NOISE_SD", "PROMINENCE_IN_NOISE_SD", "REPEAT_AGREEMENT_SD",
            "SAMPLE_INTERVAL_RANGE", "SPEED_RANGE", "SPIN_FILE", "TRIAL_TABLE_COLUMNS", "Drag",
-           "FailureReason", "FitConfig", "FolderKinematics", "ball_drag", "Kinematics", "LengthUnit",
-           "Trajectory", "TrajectoryError", "find_bounces", "fit_bounces", "fit_kinematics",
-           "kinematics_from_folder", "read_spin_table", "read_trajectory", "refer_to_contact",
+           "FailureReason", "Fall", "FitConfig", "FolderKinematics", "GravityScale", "ball_drag",
+           "Kinematics", "LengthUnit", "Trajectory", "TrajectoryError", "find_bounces",
+           "fit_bounces", "fit_kinematics", "gravity_scale", "kinematics_from_folder",
+           "read_spin_table", "read_trajectory", "refer_to_contact", "rescaled_by_fall",
            "trajectory_from_arrays", "trial_table_from_folder", "trials_from_kinematics",
            "write_trajectory", "write_trial_table"]

@@ -14,6 +14,7 @@ from scipy.signal import find_peaks
 from ._config import FitConfig
 from ._flight import Flight, correlated_errors, fit_drag, fit_quadratic, sample_outlier_p
 from ._gates import apply_gates
+from ._gravity import bounce_fall
 from ._observe import Observation, observe
 from ._read import Trajectory
 from ._result import Kinematics, TrajectoryError
@@ -312,7 +313,8 @@ def _kinematics(traj: Trajectory, obs: Observation, pre: Flight, post: Flight, t
         label=Path(name).name, bounce=k + 1, n_bounces=n, notes=notes, gates=gates,
         scale_rel_sd=traj.scale_rel_sd,
         impact_acceleration_before=_in_plane(obs.a_in, obs.v_in, mirror),
-        impact_acceleration_after=_in_plane(obs.a_out, obs.v_in, mirror))
+        impact_acceleration_after=_in_plane(obs.a_out, obs.v_in, mirror),
+        fall=bounce_fall(pre, post, cfg.drag_k))
 
 
 def _in_plane(a: np.ndarray, v_in: np.ndarray, mirror: float) -> tuple[float, float]:

@@ -18,6 +18,7 @@ from ..data import make_trials, write_trials
 from ._config import FitConfig
 from ._contact import refer_to_contact
 from ._fit import find_bounces, fit_bounces
+from ._gravity import GravityScale, gravity_scale
 from ._read import LENGTH_UNITS, LengthUnit, read_trajectory
 from ._result import Kinematics, TrajectoryError
 from ._spin import SPIN_FILE, SpinRow, check_spin_names, read_spin_table, spin_for
@@ -244,15 +245,49 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
             "trials; `scale_rel_sd` is left out of the table (it holds it for every trial "
             "or none)")
         results = tuple(replace(k, scale_rel_sd=None) for k in results)
+    gravity = gravity_scale([k.fall for k in results if k.fall is not None],
+                            experiment.gravity, [k.scale_rel_sd for k in results])
+    record: dict[str, Any] = {"setting": s["scale"]}
+    if gravity is not None:
+        log(f"  {gravity.summary()}")
+        record |= gravity.record()
+        if s["scale"] == "gravity":
+            results, factor, sd, words = rescaled_by_fall(results, gravity)
+            record |= {"applied_factor": factor, "applied_rel_sd": sd}
+            log(f"  {words}")
+    elif s["scale"] == "gravity":
+        raise InputFileError(folder, "`scale = \"gravity\"` in [trajectories], but no free "
+                                     "flight gave an acceleration: nothing written")
     stamp = {"bouncebayes_version": __version__} | dict(provenance or {}) | {
         "kinematics": {"folder": os.fspath(folder), "experiment": experiment.source,
                        "experiment_sha256": experiment.text_sha256,
                        "settings": {"rotation_deg": s["rotation_deg"],
                                     "length_unit": s["length_unit"]} | {
                            k: v for k, v in options.items()},
-                       "inputs": _hashes(folder)}}
+                       "gravity": record, "inputs": _hashes(folder)}}
     write_trial_table(out, results, provenance=stamp)
     return found, results
+
+
+def rescaled_by_fall(results: Sequence[Kinematics], gravity: GravityScale
+                     ) -> tuple[tuple[Kinematics, ...], float, float, str]:
+    """``results`` with every speed (and its standard error) divided by the lengths' factor
+    the fall gives (:meth:`GravityScale.combined` where it agrees with the stated scale, the
+    fall's alone where it does not or none was stated) and ``scale_rel_sd`` set to its
+    relative SD; the factor, the SD, and what was done in words. Angles do not depend on the
+    scale."""
+    factor, sd = gravity.combined() if gravity.agrees else (gravity.scale, gravity.scale_sd)
+    how = ("the fall and the stated scale combined" if gravity.agrees and gravity.stated
+           else "the fall's alone" + ("" if gravity.stated is None else
+                                       " (it disagrees with the stated scale)"))
+    out = tuple(replace(k, incidence_speed=k.incidence_speed / factor,
+                        incidence_speed_se=k.incidence_speed_se / factor,
+                        rebound_speed=k.rebound_speed / factor,
+                        rebound_speed_se=k.rebound_speed_se / factor, scale_rel_sd=sd)
+                for k in results)
+    words = (f"scale = \"gravity\": every speed divided by {factor:.4f} ({how}); "
+             f"scale_rel_sd = {sd:.4f}")
+    return out, factor, sd, words
 
 
 def _spin_bound(experiment) -> float:

@@ -12,6 +12,7 @@ from typing import Literal
 import numpy as np
 
 from .._errors import InputFileError
+from ._gravity import Fall
 
 FailureReason = Literal["no bounce", "several bounces", "too few points", "no crossing",
                         "bad fit", "misfit", "implausible errors", "energy gain",
@@ -58,7 +59,8 @@ class Kinematics:
     beside the trajectories and the tracker's sidecar, where given.
     ``impact_acceleration_before``/``after``: the flights' accelerations at the impact (drag
     included) along the incident direction in the plane and along the normal, in the frame of
-    the reported angles.
+    the reported angles. ``fall``: the flights' fall against gravity, which measures the
+    length scale (:class:`~bouncebayes.kinematics._gravity.Fall`).
     """
 
     incidence_speed: float
@@ -94,6 +96,7 @@ class Kinematics:
     scale_rel_sd: float | None = None
     impact_acceleration_before: tuple[float, float] | None = None
     impact_acceleration_after: tuple[float, float] | None = None
+    fall: Fall | None = None
 
 
 def observables(v_in: np.ndarray, v_out: np.ndarray) -> list[float]:
