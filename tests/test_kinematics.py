@@ -914,10 +914,11 @@ def test_a_campaign_whose_scale_is_off_is_told_so_in_words():
     assert abs(off.scale - 1.04) < 3 * off.scale_sd and off.scale_sd < 0.01
     assert not off.agrees and off.z > 3
     assert re.search(r"the lengths are 4\.\d\d % too long .*\n  warning: that is \d+\.\d SD "
-                     r"from the tracker's stated scale uncertainty \(\+- 0\.50 %\)",
+                     r"given the tracker's stated scale uncertainty \(\+- 0\.50 %\)",
                      off.summary()), off.summary()
     wide = gravity_scale(falls, G, [0.05] * 10)
     assert wide.agrees and "warning" not in wide.summary()
+    assert re.search(r"; 0\.\d SD given the tracker's .*: consistent$", wide.summary())
     assert "no scale uncertainty was stated" in gravity_scale(falls, G).summary()
     assert gravity_scale([], G) is None
 
@@ -958,6 +959,20 @@ def test_scale_gravity_divides_the_speeds_by_the_fall_and_states_its_error(tmp_p
     np.testing.assert_array_equal(corrected.rebound_angle, tracked.rebound_angle)
     np.testing.assert_allclose(corrected.scale_rel_sd, sd)
     assert np.isnan(tracked.scale_rel_sd).all()
+    # nothing falls: no check, and the correction cannot be made
+    weightless = text + "[model]\ngravity_m_s2 = 0.0\n"
+    for scale in ("tracked", "gravity"):
+        e = parse_experiment(tomllib.loads(weightless + f'[trajectories]\nscale = "{scale}"\n'))
+        if scale == "tracked":
+            lines.clear()
+            trial_table_from_folder(folder, e, tmp_path / "w.csv", log=lines.append)
+            assert not any("gravity" in line for line in lines)
+        else:
+            with pytest.raises(InputFileError, match="trajectories.scale.*needs the flights' "
+                                                     "fall, but the experiment's gravity_m_s2 "
+                                                     "is 0: nothing written"):
+                trial_table_from_folder(folder, e, tmp_path / "w2.csv", log=lines.append)
+            assert not (tmp_path / "w2.csv").exists()
 
 
 # ------------------------------------------------------------------------- gates, settings

@@ -216,6 +216,10 @@ def test_run_goes_from_a_folder_of_videos_to_a_report(tmp_path, capsys):
     assert len(list((out / "trajectories").glob("*.track.json"))) == 3
     assert (out / "report.html").is_file()
     assert "3 of 3 trajectory files gave kinematics" in printed.err
+    # the flights' fall checks the scale (the renders fall at 9.81 m/s^2), and the report says it
+    assert re.search(r"gravity: the 6 free flights fall at .* consistent", printed.err)
+    assert "<b>Length scale</b> (the free flights' fall against g): the 6 free flights" in (
+        out / "report.html").read_text()
     # a 12 px ball: its edge gives the scale to ~1 %, nothing to warn about (see
     # test_pipeline.py for the warning of small balls)
     assert "warning" not in printed.err

@@ -480,10 +480,25 @@ def _experiment_section(result: InferenceResult) -> list[str]:
         f"speed {np.mean(t.rebound_speed):.4g} &plusmn; {np.std(t.rebound_speed, ddof=1):.2g} "
         f"m/s, rebound angle {np.mean(t.rebound_angle):.4g} &plusmn; "
         f"{np.std(t.rebound_angle, ddof=1):.2g} deg (mean &plusmn; sd).</p>",
+        *_scale_note(t),
         "<h2>Method</h2>",
         f"<p><b>Likelihood {result.likelihood}</b>: {html.escape(MEANINGS[result.likelihood])}"
         f"</p><p><b>Sampler {result.sampler}</b>: "
         f"{html.escape(SAMPLER_MEANINGS[result.sampler])}; {s['n_draws']} draws.</p>"]
+
+
+def _scale_note(trials) -> list[str]:
+    """The kinematics' check of the length scale against the flights' fall, where the trial
+    table was made from trajectories (its provenance holds it)."""
+    record = ((trials.provenance or {}).get("kinematics") or {}).get("gravity") or {}
+    if "summary" not in record:
+        return []
+    text = html.escape(record["summary"].removeprefix("gravity: ")).replace("\n  warning:", "<br><b>Warning:</b>")
+    applied = ("" if "applied_factor" not in record else
+               f" The lengths were corrected by it (<code>scale = \"gravity\"</code>): every "
+               f"speed divided by {record['applied_factor']:.4f}, scale uncertainty "
+               f"{100 * record['applied_rel_sd']:.2f} %.")
+    return [f"<p><b>Length scale</b> (the free flights' fall against g): {text}.{applied}</p>"]
 
 
 def _prediction_section(prop_summary: dict) -> list[str]:

@@ -256,8 +256,11 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
             record |= {"applied_factor": factor, "applied_rel_sd": sd}
             log(f"  {words}")
     elif s["scale"] == "gravity":
-        raise InputFileError(folder, "`scale = \"gravity\"` in [trajectories], but no free "
-                                     "flight gave an acceleration: nothing written")
+        why = (f"the experiment's gravity_m_s2 is {experiment.gravity:g}"
+               if not experiment.gravity > 0 else "no free flight gave an acceleration")
+        raise InputFileError(experiment.source, "`scale = \"gravity\"` in [trajectories] "
+                                                f"needs the flights' fall, but {why}: nothing "
+                                                "written", field="trajectories.scale")
     stamp = {"bouncebayes_version": __version__} | dict(provenance or {}) | {
         "kinematics": {"folder": os.fspath(folder), "experiment": experiment.source,
                        "experiment_sha256": experiment.text_sha256,

@@ -188,23 +188,26 @@ class GravityScale:
             return head + "; no scale uncertainty was stated to compare with"
         stated = f"the tracker's stated scale uncertainty (+- {100 * self.stated:.2f} %)"
         if self.agrees:
-            return head + f", within {stated}"
-        return (f"{head}\n  warning: that is {abs(self.z or 0.0):.1f} SD from {stated}: the "
+            return head + f"; {abs(self.z or 0.0):.1f} SD given {stated}: consistent"
+        return (f"{head}\n  warning: that is {abs(self.z or 0.0):.1f} SD given {stated}: the "
                 "scale (--ball-diameter or --reference), or the frame rate (the fall goes as "
-                "its square), is off; check both, or set `scale = \"gravity\"` in "
-                "[trajectories] to correct the lengths by the fall")
+                "its square), is off, or the filmed plane does not hold the vertical; check "
+                "them, or set `scale = \"gravity\"` in [trajectories] to correct the lengths "
+                "by the fall")
 
 
 def gravity_scale(falls: Sequence[Fall], gravity: float,
                   stated: Sequence[float | None] = ()) -> GravityScale | None:
-    """The campaign's :class:`GravityScale` from its bounces' falls (None without one usable
-    flight), against ``gravity`` (m/s^2); ``stated``: the trials' scale_rel_sd (None where
-    not stated)."""
+    """The campaign's :class:`GravityScale` from its bounces' falls against ``gravity``
+    (m/s^2); ``stated``: the trials' scale_rel_sd (None where not stated). None without a
+    usable flight or where ``gravity`` is not positive."""
+    if not (math.isfinite(gravity) and gravity > 0):
+        return None  # nothing falls: no scale to read
     value = np.array([v for f in falls for v in f.value], dtype=float)
     se = np.array([s for f in falls for s in f.se], dtype=float)
     slope = np.array([s for f in falls for s in f.drag_slope], dtype=float)
     arm = np.array([s for f in falls for s in f.lift_arm], dtype=float)
-    ok = np.isfinite(value) & np.isfinite(se) & (se > 0)
+    ok = np.isfinite(value) & (value > 0) & np.isfinite(se) & (se > 0)
     if not ok.any():
         return None
     value, se, slope, arm = value[ok], se[ok], slope[ok], arm[ok]
