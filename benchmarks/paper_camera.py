@@ -14,9 +14,12 @@ error (bias); the ball's radius from the edge model. Then, as `bouncebayes track
 `kinematics` would (scale from the ball's diameter and its edge radius, the renderer's surface
 line): the scale's error and stated relative SD, and the z-scores of the rebound speed (its
 standard error and the scale's SD in quadrature) and angle against the renderer's truth,
-whether the kinematics' gates passed the track, and the tracking record's warning. Summary:
-mean and largest RMS (the target: 0.15 px, docs/tracking.md), the largest |z|, and the load
-average during the run (the machine is shared).
+whether the kinematics' gates passed the track, the tracking record's warning, and the two
+flights' fall (m/s^2, ``bouncebayes.kinematics.Fall``). Summary:
+mean and largest RMS (the target: 0.15 px, docs/tracking.md), the largest |z|, the scale the
+flights' fall gives for all clips and for each lighting's 8 against their mean true scale error
+(``gravity``, ``benchmarks/_gravity_check.py``), and the load average during the run (the
+machine is shared).
 
 ``python benchmarks/paper_camera.py [--cache DIR]`` writes ``benchmarks/results/paper_camera.json``
 (``--cache``: keep the decoded frames there, so that a rerun tracks the same frames without
@@ -53,6 +56,9 @@ from bouncebayes.tracking import (  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from render_pbr import Shot, Throw, render, write  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _gravity_check import fall_check  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "paper_camera.json"
 LIGHTS = {"test": (-0.15, 0.25, 0.95), "front": (0.0, 0.0, 1.0), "left": (-0.6, 0.3, 0.75),
@@ -107,22 +113,24 @@ def track_and_fit(frames: np.ndarray, s: Shot, tmp: Path):
         fit = fit_kinematics(read_trajectory(files["trajectory"]))
     except TrajectoryError as exc:  # a gate rejected the track: said, and no z-scores
         return video.track, row | {"accepted": False, "rejected_because": str(exc),
-                                   "rebound_speed_z": None, "rebound_angle_z": None}
+                                   "rebound_speed_z": None, "rebound_angle_z": None}, None
     speed_sd = float(np.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd))
     return video.track, row | {"accepted": True,
+                               "fall_m_s2": [round(v, 4) for v in fit.fall.value],
+                               "fall_se_m_s2": [round(v, 4) for v in fit.fall.se],
                                "rebound_speed_z": round((fit.rebound_speed
                                                          - s.throw.rebound_speed())
                                                         / speed_sd, 2),
                                "rebound_angle_z": round((fit.rebound_angle
                                                          - s.throw.rebound_angle())
-                                                        / fit.rebound_angle_se, 2)}
+                                                        / fit.rebound_angle_se, 2)}, fit.fall
 
 
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cache", type=Path, default=None)
     args = ap.parse_args(argv)
-    rows = []
+    rows, falls = [], []
     t0 = time.time()
     with tempfile.TemporaryDirectory() as tmp:
         for lname, light in LIGHTS.items():
@@ -132,7 +140,9 @@ def main(argv=None) -> dict:
                         s = shot(light, seed, sigma)
                         name = f"{lname}-{codec}-{seed}-{sigma}"
                         frames = clip_frames(s, codec, name, Path(tmp), args.cache)
-                        tr, fitted = track_and_fit(frames, s, Path(tmp))
+                        tr, fitted, fall = track_and_fit(frames, s, Path(tmp))
+                        if fall is not None:
+                            falls.append((lname, fall, fitted["scale_error_pct"]))
                         truth = s.true_centres()
                         r = s.radius_px
                         whole = ((truth[:, 0] >= r) & (truth[:, 0] <= s.width - 1 - r)
@@ -162,6 +172,11 @@ def main(argv=None) -> dict:
               "max_abs_rebound_angle_z": max(abs(r["rebound_angle_z"]) for r in rows
                                              if r["accepted"]),
               "accepted": sum(r["accepted"] for r in rows),
+              # the flights' fall against g (bouncebayes.kinematics.gravity_scale): the scale of
+              # all clips, and of each lighting's 8, against their mean true scale error
+              "gravity": {group: fall_check([f for g, f, _ in falls if group in ("all", g)],
+                                            [e for g, _, e in falls if group in ("all", g)])
+                          for group in ("all", *LIGHTS)},
               "load_average_1_5_15": [float(v) for v in load[:3]],
               "wall_s": round(time.time() - t0, 1), "rows": rows}
     RESULTS.write_text(json.dumps(result, indent=1) + "\n")

@@ -6,7 +6,9 @@ are tracked with ``track_video`` (scale from the ball's edge, detected nothing: 
 given), written with ``write_track_files`` and fitted with ``fit_kinematics``. For each, the
 rebound speed's z-score against the rendered truth, with the kinematics' standard error and the
 scale's stated relative SD (``scale_rel_sd``) in quadrature, and the z of the speed with the
-standard error alone (what a per-trial analysis that ignores the scale would claim).
+standard error alone (what a per-trial analysis that ignores the scale would claim); the two
+flights' fall (m/s^2), and the scale the eight bounces' fall gives against their mean true
+scale error (``gravity``, ``benchmarks/_gravity_check.py``).
 
 The tracked centres' errors are correlated along the track (the texture under the ball, the
 codec) and this footage has little pixel noise; the kinematics take the tracker's stated
@@ -36,12 +38,15 @@ from bouncebayes.tracking import Surface, track_video, write_track_files  # noqa
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from render_pbr import Shot, Throw, render, write  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _gravity_check import fall_check  # noqa: E402
+
 DARK = dict(albedo=0.12, ambient=0.5, wall=170.0, plane=150.0, texture=12.0)
 RESULTS = Path(__file__).resolve().parent / "results" / "tracking_campaign.json"
 
 
 def main() -> dict:
-    rows = []
+    rows, falls = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(8):
             speed, angle = 1.6 + 0.1 * seed, 25.0 + 3.5 * seed
@@ -67,6 +72,7 @@ def main() -> dict:
                     rows.append({"seed": seed, "error": str(exc2), "rejected": rejected})
                     continue
             truth = shot.throw.rebound_speed()
+            falls.append(fit.fall)
             sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
             rows.append({"seed": seed, "lighting": "dark" if seed % 2 else "side",
                          "rebound_speed": round(fit.rebound_speed, 5), "truth": round(truth, 5),
@@ -77,6 +83,8 @@ def main() -> dict:
                          "z": round((fit.rebound_speed - truth) / sd, 2),
                          "z_se_only": round((fit.rebound_speed - truth) / fit.rebound_speed_se,
                                             2),
+                         "fall_m_s2": [round(v, 4) for v in fit.fall.value],
+                         "fall_se_m_s2": [round(v, 4) for v in fit.fall.se],
                          "flagged": int(video.track.flag.sum()), "gates": gates,
                          "rejected_by_default_gates": rejected})
             print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
@@ -84,7 +92,9 @@ def main() -> dict:
     result = {"benchmark": "tracking_campaign", "n": len(rows), "fitted": len(zs),
               "passed_default_gates": sum(r.get("gates") == "default" for r in rows),
               "max_abs_z": max(zs) if zs else None,
-              "within_3": sum(z <= 3 for z in zs), "rows": rows}
+              "within_3": sum(z <= 3 for z in zs),
+              "gravity": fall_check(falls, [r["scale_error_pct"] for r in rows if "z" in r]),
+              "rows": rows}
     RESULTS.write_text(json.dumps(result, indent=1) + "\n")
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}))
     return result
