@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 
 import cv2
 import numpy as np
@@ -404,6 +405,34 @@ def test_track_command_writes_trajectory_overlay_and_record(noisy, tmp_path, cap
     assert 0 < record["ball"]["centre_sd_px"] < 0.5  # the centres' stated per-frame SD
     assert 0 <= record["ball"]["light_elevation_deg"] <= 90  # the edge model's light
     assert cv2.imread(str(out / "throw1.overlay.png")) is not None
+
+
+def test_track_command_checks_the_scale_and_the_frame_rate_against_the_fall(noisy, tmp_path,
+                                                                           capsys):
+    """The scene falls at 9.81 m/s^2 (tests/video_helpers.py). Tracked at its own 1000 fps,
+    the flights' fall agrees with the ball-diameter scale; told 800 fps, every time is 1.25
+    times too long, so the fall is 9.81 / 1.25^2 (closed form) and the warning names the frame
+    rate at which the fall is g: 1.25 times the one used."""
+    scene, _, frames = noisy
+    folder = write_png_sequence(frames, tmp_path / "throw1")
+    x1, y1, x2, y2 = scene.surface_points()
+    said = {}
+    for fps in (1000, 800):
+        out = tmp_path / f"out{fps}"
+        assert run_cli(["track", str(folder), "--out", str(out), "--fps", str(fps),
+                        "--surface", f"{x1},{y1},{x2},{y2}"]) == 0
+        said[fps] = (capsys.readouterr().out,
+                     json.loads((out / "throw1.track.json").read_text())["gravity"])
+    text, right = said[1000]
+    assert right["agrees"] and right["n_flights"] == 2 and not right["drag_corrected"]
+    assert abs(right["fall_m_s2"] - 9.81) < 3 * right["fall_se_m_s2"]
+    assert re.search(r"\n  gravity: the 2 free flights fall at .*: consistent", text)
+    text, wrong = said[800]
+    assert not wrong["agrees"]
+    assert abs(wrong["fall_m_s2"] - 9.81 / 1.25**2) < 3 * wrong["fall_se_m_s2"]
+    rate = float(re.search(r"the fall is g at ([\d.]+) times the rate used", text).group(1))
+    assert rate == pytest.approx(1.25, abs=0.02)
+    assert "\n  warning: that is" in text
 
 
 def test_track_command_tracks_the_good_inputs_and_names_the_bad(noisy, tmp_path, capsys):

@@ -9,6 +9,7 @@ together.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 from collections import Counter
@@ -167,7 +168,9 @@ def _track_one(path: Path, settings: dict, stage: Path, args: argparse.Namespace
     provenance = record(args, {"video": path, "background": args.background})
     for key in ("overlay", "record"):  # the trajectory keeps `t,x,y` as its first line
         stamp(files[key], provenance)
-    return summary_line(result, {k: args.out / v.name for k, v in files.items()})
+    gravity = json.loads(files["record"].read_text(encoding="utf-8")).get("gravity")
+    return summary_line(result, {k: args.out / v.name for k, v in files.items()},
+                        gravity=None if gravity is None else gravity["summary"])
 
 
 def output_name(path: Path) -> str:
@@ -202,10 +205,10 @@ def settings_record(args: argparse.Namespace) -> dict:
             "per-pixel median of frames"}
 
 
-def summary_line(result, files: dict[str, Path]) -> str:
+def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> str:
     """What was found in one video, and where it went (and a warning where the scale comes
     from the ball's radius and that is unreliable or uncertain, and where the frames are
-    strongly compressed)."""
+    strongly compressed); ``gravity``: the flights' fall against the scale, in words."""
     from ..tracking import EDGE_FIT, compression_warning, radius_warning
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
@@ -221,4 +224,5 @@ def summary_line(result, files: dict[str, Path]) -> str:
             f"  -> {files['trajectory']}  {files['overlay']}  {files['record']}"
             + (f"\n  warning: {warning}" if cal.source != "reference"
                and (warning := radius_warning(tr)) else "")
-            + (f"\n  warning: {coded}" if (coded := compression_warning(src)) else ""))
+            + (f"\n  warning: {coded}" if (coded := compression_warning(src)) else "")
+            + (f"\n  {gravity}" if gravity else ""))

@@ -190,10 +190,10 @@ class GravityScale:
         if self.agrees:
             return head + f"; {abs(self.z or 0.0):.1f} SD given {stated}: consistent"
         return (f"{head}\n  warning: that is {abs(self.z or 0.0):.1f} SD given {stated}: the "
-                "scale (--ball-diameter or --reference), or the frame rate (the fall goes as "
-                "its square), is off, or the filmed plane does not hold the vertical; check "
-                "them, or set `scale = \"gravity\"` in [trajectories] to correct the lengths "
-                "by the fall")
+                "scale (--ball-diameter or --reference) is off, or the frame rate (the fall "
+                f"is g at {math.sqrt(self.gravity / self.fall):.4g} times the rate used), or "
+                "the filmed plane does not hold the vertical; check them, or set `scale = "
+                "\"gravity\"` in [trajectories] to correct the lengths by the fall")
 
 
 def gravity_scale(falls: Sequence[Fall], gravity: float,

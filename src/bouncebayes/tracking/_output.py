@@ -410,5 +410,25 @@ def write_track_files(video: TrackedVideo, folder: str | os.PathLike, *,
     write_trajectory(files["trajectory"], traj.t, traj.x, traj.y, quality=quality)
     overlay_image(video.source.frames, tr, files["overlay"], calibration=video.calibration,
                   surface=video.surface, title=name)
-    write_json(files["record"], track_record(video, settings or {}, files))
+    record = track_record(video, settings or {}, files)
+    write_json(files["record"], record)
+    # the flights' fall, read as the kinematics read the files just written (the record's
+    # centre SD included), then kept in the record
+    check = gravity_check(files["trajectory"], video.calibration.relative_sd)
+    write_json(files["record"], record | {"gravity": None if check is None else check.record()})
     return files
+
+
+def gravity_check(trajectory: str | os.PathLike, stated: float | None):
+    """The video's scale against the fall of its free flights (standard gravity, no air drag:
+    :func:`bouncebayes.kinematics.gravity_scale`), or None where no bounce of the trajectory
+    gives two fitted flights. ``stated``: the calibration's relative SD."""
+    from ..kinematics import fit_bounces, gravity_scale, read_trajectory
+    from ..model import STANDARD_GRAVITY
+
+    try:
+        fits = fit_bounces(read_trajectory(trajectory))
+    except ValueError:  # no bounce, too few samples: nothing falls freely enough to say
+        return None
+    falls = [k.fall for k in fits if not isinstance(k, Exception) and k.fall is not None]
+    return gravity_scale(falls, STANDARD_GRAVITY, [stated]) if falls else None
