@@ -289,7 +289,10 @@ def rescaled_by_fall(results: Sequence[Kinematics], gravity: GravityScale
                         rebound_speed_se=k.rebound_speed_se / factor, scale_rel_sd=sd)
                 for k in results)
     words = (f"scale = \"gravity\": every speed divided by {factor:.4f} ({how}); "
-             f"scale_rel_sd = {sd:.4f}")
+             f"scale_rel_sd = {sd:.4f}" + ("" if gravity.stated is None else
+                                           "; where each video has its own calibration, its "
+                                           "error about the campaign's stays in its speeds "
+                                           "(incidence and rebound alike)"))
     return out, factor, sd, words
 
 

@@ -48,8 +48,8 @@ class Fall:
     constant-acceleration fit of a flight in air gives ``g`` minus the drag's mean); with a
     drag fit, its constant part. ``se``: the fit's standard error of it. ``drag_slope``:
     d(value)/dk (m^2/s^2: the mean of ``|v| v`` along the fall's direction), ``lift_arm``:
-    |d(value)/dc| per unit lift coefficient (m^2/s^2), both zero for a drag fit (its
-    covariance has them) or where ``k`` is not known.
+    |d(value)/dc| per unit lift coefficient (m^2/s^2; zero for a drag fit, which fits the
+    lift), both zero where ``k`` is not known.
     """
 
     value: tuple[float, ...]
@@ -68,29 +68,38 @@ def flight_fall(flight: Flight, k: float | None) -> tuple[float, float, float, f
     cov = (4.0 if quadratic else 1.0) * flight.cov[np.ix_(idx, idx)]
     slope = arm = 0.0
     if k is not None and flight.tau is not None:
-        if quadratic:
-            c = flight.params.reshape(d, 3)
-            v = c[:, 1][None, :] + 2.0 * c[:, 2][None, :] * flight.tau[:, None]  # (n, d)
-        else:
-            v = _drag.solve(flight.params, d, flight.tau, sensitivities=False)[1]
-        speed = np.linalg.norm(v, axis=1)
-        drag = np.mean(speed[:, None] * v, axis=0)  # mean |v| v (m^2/s^2)
-        if quadratic:  # the fit's constant acceleration is g minus the drag's mean
-            a = a + k * drag
-        u = a / np.linalg.norm(a)
-        slope = float(u @ drag)
-        # the lift |v| (c x v), where not fitted: its part along u is c . (|v| v x u), in
-        # 2-D the normal component c times |v| (u_y v_x - u_x v_y)
-        if not quadratic:
-            arm = 0.0
-        elif d == 2:
-            arm = abs(float(np.mean(speed * (u[1] * v[:, 0] - u[0] * v[:, 1]))))
-        else:
-            arm = float(np.linalg.norm(np.mean(speed[:, None] * np.cross(v, u), axis=0)))
+        a, slope, arm = _aero(flight, flight.tau, a, k)
     value = float(np.linalg.norm(a))
     u = a / value if value > 0 else np.eye(d)[-1]
     se = math.sqrt(max(float(u @ cov @ u), 0.0))
     return value, se, slope, arm
+
+
+def _aero(flight: Flight, tau: np.ndarray, a: np.ndarray, k: float
+          ) -> tuple[np.ndarray, float, float]:
+    """The flight's fall with the drag's mean added back (constant-acceleration fits only: a
+    drag fit's ``a`` is its constant part already), its derivative in ``k`` along the fall, and
+    the lift's arm there (the lift where it was not fitted: ``|v| (c x v)``, whose part along
+    the fall ``u`` is ``c . (|v| v x u)``; in 2-D the normal ``c`` times ``|v| (u_y v_x - u_x
+    v_y)``)."""
+    d = flight.d
+    if flight.model == "quadratic":
+        c = flight.params.reshape(d, 3)
+        v = c[:, 1][None, :] + 2.0 * c[:, 2][None, :] * tau[:, None]  # (n, d)
+    else:
+        v = _drag.solve(flight.params, d, tau, sensitivities=False)[1]
+    speed = np.linalg.norm(v, axis=1)
+    drag = np.mean(speed[:, None] * v, axis=0)  # mean |v| v (m^2/s^2)
+    if flight.model == "quadratic":
+        a = a + k * drag
+    u = a / np.linalg.norm(a)
+    if flight.model != "quadratic":
+        arm = 0.0
+    elif d == 2:
+        arm = abs(float(np.mean(speed * (u[1] * v[:, 0] - u[0] * v[:, 1]))))
+    else:
+        arm = float(np.linalg.norm(np.mean(speed[:, None] * np.cross(v, u), axis=0)))
+    return a, float(u @ drag), arm
 
 
 def bounce_fall(before: Flight, after: Flight, k: float | None) -> Fall:
