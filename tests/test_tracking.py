@@ -949,6 +949,31 @@ def test_strongly_compressed_frames_get_a_warning(tmp_path, capsys):
             record = json.loads((out / "q40.track.json").read_text())
             assert record["jpeg_quality"] == pytest.approx(40.0)
             assert record["compression_warning"] == said
+            # the stated scale SD holds the compression's 0.3 px (a quality below 60: full)
+            ball = record["ball"]
+            assert "allows 0.3 px of the ball's radius" in said
+            assert record["calibration"]["relative_sd"] * ball["radius_px"] >= 0.3
+
+
+def test_the_compression_term_is_a_ramp_in_jpeg_quality():
+    """Closed form of COMPRESSION_PX's ramp: none from quality 80 up and where the quality is
+    not read, full from 60 down, linear between; in quadrature with the other terms."""
+    from bouncebayes.tracking._edge import (
+        COMPRESSION_PX,
+        compression_px,
+        edge_model_systematic_px,
+        radius_relative_sd,
+    )
+
+    assert compression_px(None) == 0.0 and compression_px(80.0) == 0.0
+    assert compression_px(95.0) == 0.0 and compression_px(60.0) == COMPRESSION_PX
+    assert compression_px(30.0) == COMPRESSION_PX
+    assert compression_px(70.0) == pytest.approx(COMPRESSION_PX / 2)
+    plain = radius_relative_sd(10.0, 0.02, 0.5)
+    coded = radius_relative_sd(10.0, 0.02, 0.5, jpeg_quality=50.0)
+    assert coded == pytest.approx(math.hypot(0.02, edge_model_systematic_px(10.0, 0.5),
+                                             COMPRESSION_PX) / 10.0)
+    assert plain == pytest.approx(math.hypot(0.02, edge_model_systematic_px(10.0, 0.5)) / 10.0)
 
 
 def test_bad_calibration_input_is_one_line_naming_the_option(tmp_path):

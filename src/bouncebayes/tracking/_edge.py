@@ -144,6 +144,17 @@ SMALL_FIT_SYSTEMATIC_PX = 0.13
 # Two glossy balls there, whose edge radius is 17 % small (fitted blur 0.42 of it), stay with
 # the edge model and its stated 28-30 %
 SMALL_FIT_BLUR = 0.4
+# Strong JPEG compression (MJPEG, JPEG frames; the quality read by ._video.jpeg_quality): the
+# codec quantises each 8 x 8 block, which rings at the ball's edge. Rendered balls
+# (tests/render_pbr.py, side-lit, glossy and dark, blur 0 and 0.7 px, seeds 8 and 3), each
+# frame a JPEG of quality 70..30: radius 5 px off by up to 7.7 % at quality 70 and 9.8-14 % at
+# 60..30, 10 px by up to 3.4 % and 6.3-7.9 %, 15 px by at most 1.3 % (|z| up to 5.9 with the
+# terms above: docs/tracking.md §3). So COMPRESSION_PX (px) in quadrature with either
+# method's systematic error, ramped linearly from a quality of COMPRESSION_FROM (none) to
+# COMPRESSION_FULL (full): those scenes |z| <= 2.3 (RMS 0.2-1.3 per quality and radius;
+# generous at 15 px). OpenCV's MJPEG writer codes at ~80-90: untouched.
+COMPRESSION_PX = 0.3
+COMPRESSION_FROM, COMPRESSION_FULL = 80.0, 60.0
 
 
 def spread(n: int, k: int) -> np.ndarray:
@@ -167,6 +178,16 @@ def psf_shape_px(radius_px: float, blur_px: float | None) -> float:
     return PSF_SHAPE_REL * radius_px * min(max(ramp, 0.0), 1.0)
 
 
+def compression_px(jpeg_quality: float | None) -> float:
+    """The radius error (px) that JPEG compression of the frames allows: ``COMPRESSION_PX``
+    ramped from a quality of ``COMPRESSION_FROM`` (zero) to ``COMPRESSION_FULL`` (full); zero
+    where the quality is not known (uncompressed frames, MPEG-4, H.264)."""
+    if jpeg_quality is None or not math.isfinite(jpeg_quality):
+        return 0.0
+    ramp = (COMPRESSION_FROM - jpeg_quality) / (COMPRESSION_FROM - COMPRESSION_FULL)
+    return COMPRESSION_PX * min(1.0, max(0.0, ramp))
+
+
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's systematic radius error (px) for a fitted blur ``blur_px``: the sum
     of ``SYSTEMATIC_PX``, the blur term ``BLUR_PX3 blur^3`` and the small-ball term
@@ -177,15 +198,16 @@ def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
 
 
 def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None,
-                       method: str = EDGE_MODEL) -> float:
+                       method: str = EDGE_MODEL, jpeg_quality: float | None = None) -> float:
     """The relative standard deviation of the ball's radius: its scatter across frames
     ``radius_se_px`` and the systematic error in quadrature: the edge model's
     (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` and the blur term
-    ``BLUR_PX3 * blur_px^3`` in quadrature where ``method`` is ``SMALL_BALL_FIT``."""
+    ``BLUR_PX3 * blur_px^3`` in quadrature where ``method`` is ``SMALL_BALL_FIT``; and the
+    frames' JPEG compression (:func:`compression_px`)."""
     blur = 0.0 if blur_px is None else blur_px
     systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3) \
         if method == SMALL_BALL_FIT else edge_model_systematic_px(radius_px, blur_px)
-    return math.hypot(radius_se_px, systematic) / radius_px
+    return math.hypot(radius_se_px, systematic, compression_px(jpeg_quality)) / radius_px
 
 
 class RadiusFit(NamedTuple):

@@ -47,18 +47,20 @@ class Calibration:
     def from_ball_diameter(cls, diameter: float, radius_px: float,
                            radius_se_px: float | None = None,
                            blur_px: float | None = None,
-                           method: str = EDGE_MODEL) -> Calibration:
+                           method: str = EDGE_MODEL,
+                           jpeg_quality: float | None = None) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
         to which the systematic error of what measured it is added in quadrature
         (:func:`radius_relative_sd`: ``method`` ``"edge model"``, with the fitted blur
-        ``blur_px``, or ``"small-ball fit"``; ``Track.radius_fit.method``)."""
+        ``blur_px``, or ``"small-ball fit"``; ``Track.radius_fit.method``; and the frames'
+        JPEG quality, ``VideoSource.jpeg_quality``, where known)."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
         method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT))
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
-            rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method)
+            rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method, jpeg_quality)
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 

@@ -223,7 +223,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         calibration = Calibration.from_ball_diameter(
             diameter, track.ball_radius, track.ball_radius_se,
             fit.sigma if fit is not None else None,
-            fit.method if fit is not None else EDGE_MODEL)
+            fit.method if fit is not None else EDGE_MODEL, source.jpeg_quality)
     if surface is None:
         surface = detect_surface(track.background)
         if surface is None:
@@ -292,11 +292,14 @@ def compression_warning(source: VideoSource) -> str | None:
     q = source.jpeg_quality
     if q is None or q >= STRONG_COMPRESSION:
         return None
+    from ._edge import compression_px
+
     return (f"the frames are JPEG-compressed at quality ~{q:.0f} (below "
-            f"{STRONG_COMPRESSION:.0f}): the codec rings at the ball's edge, and its radius (the "
-            "--ball-diameter scale) and centres may be off by several times their stated "
-            "uncertainty (a rendered 10 px ball +7.6 % at quality 40); give --reference, and "
-            "film with less compression if you can")
+            f"{STRONG_COMPRESSION:.0f}): the codec rings at the ball's edge; the stated "
+            f"uncertainty of the --ball-diameter scale allows {compression_px(q):.2g} px of the "
+            "ball's radius for it (rendered balls of 5-10 px came out up to 8-14 % off at "
+            "quality 30-60), and the centres may be off by more than stated; give --reference, "
+            "and film with less compression if you can")
 
 
 def radius_warning(track: Track) -> str | None:
