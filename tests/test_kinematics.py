@@ -952,9 +952,12 @@ def test_scale_gravity_divides_the_speeds_by_the_fall_and_states_its_error(tmp_p
     (tracked, said), (corrected, told) = runs["tracked"], runs["gravity"]
     assert "gravity: the 16 free flights fall at" in said and "divided" not in said
     record = corrected.provenance["kinematics"]["gravity"]
-    factor, sd = record["applied_factor"], record["applied_rel_sd"]
+    (applied,) = record["applied"]  # no sidecar: one calibration shared by the campaign
+    factor, sd = applied["factor"], applied["rel_sd"]
+    assert applied["basis"] == "campaign" and len(applied["trials"]) == 8
     assert abs(factor - 1.05) < 3 * sd and sd == pytest.approx(record["scale_sd"])
-    assert f"every speed divided by {factor:.4f} (the fall's alone)" in told
+    assert f"8 trials sharing one calibration: every speed divided by {factor:.4f} (the " \
+           "fall's alone)" in told and record["applied_words"] in told
     np.testing.assert_allclose(corrected.rebound_speed, tracked.rebound_speed / factor)
     np.testing.assert_allclose(corrected.incidence_speed, tracked.incidence_speed / factor)
     np.testing.assert_array_equal(corrected.rebound_angle, tracked.rebound_angle)
@@ -974,6 +977,43 @@ def test_scale_gravity_divides_the_speeds_by_the_fall_and_states_its_error(tmp_p
                                                      "is 0: nothing written"):
                 trial_table_from_folder(folder, e, tmp_path / "w2.csv", log=lines.append)
             assert not (tmp_path / "w2.csv").exists()
+
+
+def test_scale_gravity_corrects_each_video_scaled_by_its_own_ball_by_its_own_fall(tmp_path):
+    """Trajectories whose tracker scaled each video by its own ball diameter (the sidecar's
+    calibration.source, relative_sd 3 %), each with its own scale error (lengths x 0.97 to
+    x 1.05): each video's speeds are divided by its own factor, its fall and its stated scale
+    combined, which lies within 3 of its SDs of that video's true factor, and its SD is below
+    the stated 3 %."""
+    import json
+    import tomllib
+
+    from bouncebayes.data import load_trials, parse_experiment
+    from bouncebayes.kinematics import trial_table_from_folder
+
+    rng = np.random.default_rng(35)
+    folder = tmp_path / "tracks"
+    folder.mkdir()
+    truth = {f"v{i}.csv": s for i, s in enumerate((0.97, 1.0, 1.02, 1.05))}
+    for name, s in truth.items():
+        t, pos = bounce(rng, span=0.1)
+        write_csv(folder / name, t, s * pos)
+        (folder / name.replace(".csv", ".track.json")).write_text(json.dumps(
+            {"calibration": {"metres_per_pixel": 1e-3 * s, "relative_sd": 0.03,
+                             "source": "ball diameter"}}))
+    text = PIPELINE_TOML.format(rate=1000.0, noise=2e-4, flight=0.05, inclination=0.0)
+    e = parse_experiment(tomllib.loads(text + '[trajectories]\nscale = "gravity"\n'))
+    lines: list[str] = []
+    trial_table_from_folder(folder, e, tmp_path / "t.csv", log=lines.append)
+    trials = load_trials(tmp_path / "t.csv", e)
+    applied = trials.provenance["kinematics"]["gravity"]["applied"]
+    assert sorted(a["trials"][0] for a in applied) == sorted(truth)
+    for a in applied:
+        assert a["basis"] == "video" and a["agrees"] and a["rel_sd"] < 0.03
+        assert abs(a["factor"] - truth[a["trials"][0]]) < 3 * a["rel_sd"], a
+    assert "each of 4 videos with its own ball-diameter scale corrected by its own flights' " \
+           "fall (the fall and the stated scale combined)" in "\n".join(lines)
+    np.testing.assert_allclose(sorted(trials.scale_rel_sd), sorted(a["rel_sd"] for a in applied))
 
 
 # ------------------------------------------------------------------------- gates, settings

@@ -494,10 +494,8 @@ def _scale_note(trials) -> list[str]:
     if "summary" not in record:
         return []
     text = html.escape(record["summary"].removeprefix("gravity: ")).replace("\n  warning:", "<br><b>Warning:</b>")
-    applied = ("" if "applied_factor" not in record else
-               f" The lengths were corrected by it (<code>scale = \"gravity\"</code>): every "
-               f"speed divided by {record['applied_factor']:.4f}, scale uncertainty "
-               f"{100 * record['applied_rel_sd']:.2f} %.")
+    applied = ("" if "applied_words" not in record else
+               f" The lengths were corrected by it: {html.escape(record['applied_words'])}.")
     return [f"<p><b>Length scale</b> (the free flights' fall against g): {text}.{applied}</p>"]
 
 

@@ -93,6 +93,8 @@ class TrackSidecar:
     scale_rel_sd: float | None = None  #: relative SD of metres per pixel
     surface_angle_sd_deg: float | None = None  #: SD of the detected surface angle, deg
     position_sd: float | None = None  #: per-frame SD of the tracked centres, m per coordinate
+    #: what set the scale (``calibration.source``: "ball diameter", "reference"); None: not said
+    calibration_source: str | None = None
 
 
 def line_list(lines: Sequence[int]) -> str:
@@ -330,8 +332,8 @@ def read_track_sidecar(trajectory_path: str | os.PathLike) -> TrackSidecar | Non
     """The tracker's calibration uncertainty for a trajectory file; None if no sidecar.
 
     Reads ``calibration.relative_sd``, ``surface.angle_sd_deg`` and ``ball.centre_sd_px``
-    times ``calibration.metres_per_pixel`` (each optional, a finite number >= 0); other keys
-    are ignored.
+    times ``calibration.metres_per_pixel`` (each optional, a finite number >= 0) and
+    ``calibration.source`` (optional, a string); other keys are ignored.
 
     Raises:
         InputFileError: the sidecar is not JSON, not an object, or a value is not allowed.
@@ -350,8 +352,11 @@ def read_track_sidecar(trajectory_path: str | os.PathLike) -> TrackSidecar | Non
                                    ("surface", "angle_sd_deg"), ("ball", "centre_sd_px"),
                                    ("calibration", "metres_per_pixel"))}
     sd_px, mpp = values["centre_sd_px"], values["metres_per_pixel"]
+    source = (data.get("calibration") or {}).get("source")
+    if source is not None and not isinstance(source, str):
+        raise InputFileError(path, f"must be a string; got {source!r}", field="calibration.source")
     return TrackSidecar(os.fspath(path), values["relative_sd"], values["angle_sd_deg"],
-                        None if sd_px is None or mpp is None else sd_px * mpp)
+                        None if sd_px is None or mpp is None else sd_px * mpp, source)
 
 
 def _sidecar_value(path: Path, data: dict, section: str, key: str) -> float | None:

@@ -314,7 +314,7 @@ def _kinematics(traj: Trajectory, obs: Observation, pre: Flight, post: Flight, t
         scale_rel_sd=traj.scale_rel_sd,
         impact_acceleration_before=_in_plane(obs.a_in, obs.v_in, mirror),
         impact_acceleration_after=_in_plane(obs.a_out, obs.v_in, mirror),
-        fall=bounce_fall(pre, post, cfg.drag_k))
+        fall=bounce_fall(pre, post, cfg.drag_k), calibration_source=traj.calibration_source)
 
 
 def _in_plane(a: np.ndarray, v_in: np.ndarray, mirror: float) -> tuple[float, float]:

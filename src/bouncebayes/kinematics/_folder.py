@@ -18,7 +18,7 @@ from ..data import make_trials, write_trials
 from ._config import FitConfig
 from ._contact import refer_to_contact
 from ._fit import find_bounces, fit_bounces
-from ._gravity import GravityScale, gravity_scale
+from ._gravity import gravity_scale
 from ._read import LENGTH_UNITS, LengthUnit, read_trajectory
 from ._result import Kinematics, TrajectoryError
 from ._spin import SPIN_FILE, SpinRow, check_spin_names, read_spin_table, spin_for
@@ -252,8 +252,8 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
         log(f"  {gravity.summary()}")
         record |= gravity.record()
         if s["scale"] == "gravity":
-            results, factor, sd, words = rescaled_by_fall(results, gravity)
-            record |= {"applied_factor": factor, "applied_rel_sd": sd}
+            results, applied, words = rescaled_by_fall(results, experiment.gravity)
+            record |= {"applied": applied, "applied_words": words}
             log(f"  {words}")
     elif s["scale"] == "gravity":
         why = (f"the experiment's gravity_m_s2 is {experiment.gravity:g}"
@@ -272,28 +272,72 @@ def trial_table_from_folder(folder: str | os.PathLike, experiment, out: str | os
     return found, results
 
 
-def rescaled_by_fall(results: Sequence[Kinematics], gravity: GravityScale
-                     ) -> tuple[tuple[Kinematics, ...], float, float, str]:
-    """``results`` with every speed (and its standard error) divided by the lengths' factor
-    the fall gives (:meth:`GravityScale.combined` where it agrees with the stated scale, the
-    fall's alone where it does not or none was stated) and ``scale_rel_sd`` set to its
-    relative SD; the factor, the SD, and what was done in words. Angles do not depend on the
-    scale."""
-    factor, sd = gravity.combined() if gravity.agrees else (gravity.scale, gravity.scale_sd)
-    how = ("the fall and the stated scale combined" if gravity.agrees and gravity.stated
-           else "the fall's alone" + ("" if gravity.stated is None else
-                                       " (it disagrees with the stated scale)"))
-    out = tuple(replace(k, incidence_speed=k.incidence_speed / factor,
-                        incidence_speed_se=k.incidence_speed_se / factor,
-                        rebound_speed=k.rebound_speed / factor,
-                        rebound_speed_se=k.rebound_speed_se / factor, scale_rel_sd=sd)
-                for k in results)
-    words = (f"scale = \"gravity\": every speed divided by {factor:.4f} ({how}); "
-             f"scale_rel_sd = {sd:.4f}" + ("" if gravity.stated is None else
-                                           "; where each video has its own calibration, its "
-                                           "error about the campaign's stays in its speeds "
-                                           "(incidence and rebound alike)"))
-    return out, factor, sd, words
+def rescaled_by_fall(results: Sequence[Kinematics], gravity: float
+                     ) -> tuple[tuple[Kinematics, ...], list[dict[str, Any]], str]:
+    """``results`` with every speed (and its standard error) divided by the lengths' factor the
+    flights' fall gives against ``gravity`` (m/s^2), and ``scale_rel_sd`` set to its relative
+    SD; angles do not depend on the scale. A trial whose video was scaled by its own ball
+    diameter (its tracker's sidecar) has its own calibration error, so each such video is
+    corrected by its own flights' fall; the other trials share one calibration (a reference
+    length, or none stated) and so one factor, from their flights together. Each factor is the
+    fall's and the stated scale's by inverse variances where they agree
+    (``GravityScale.combined``), the fall's alone where they do not or none was stated.
+    Returns the trials, one record per group (trials, basis, factor, SD, agreement) and what
+    was done in words."""
+    own: dict[str, list[int]] = {}
+    shared: list[int] = []
+    for i, k in enumerate(results):
+        if k.calibration_source == "ball diameter":
+            own.setdefault(k.source, []).append(i)
+        else:
+            shared.append(i)
+    groups = [("video", idx) for idx in own.values()] + ([("campaign", shared)] if shared else [])
+    factor, sd = [1.0] * len(results), [math.nan] * len(results)
+    records: list[dict[str, Any]] = []
+    for basis, idx in groups:
+        falls = [results[i].fall for i in idx]
+        check = gravity_scale([f for f in falls if f is not None], gravity,
+                              [results[i].scale_rel_sd for i in idx])
+        if check is None:  # no usable fall: the stated scale stays
+            continue
+        value, rel = check.combined() if check.agrees else (check.scale, check.scale_sd)
+        for i in idx:
+            factor[i], sd[i] = value, rel
+        records.append({"basis": basis, "trials": [results[i].label for i in idx],
+                        "factor": value, "rel_sd": rel, "agrees": check.agrees,
+                        "stated_rel_sd": check.stated})
+    out = tuple(replace(k, incidence_speed=k.incidence_speed / f,
+                        incidence_speed_se=k.incidence_speed_se / f,
+                        rebound_speed=k.rebound_speed / f,
+                        rebound_speed_se=k.rebound_speed_se / f,
+                        scale_rel_sd=s if math.isfinite(s) else k.scale_rel_sd)
+                for k, f, s in zip(results, factor, sd, strict=True))
+    return out, records, _rescale_words(records)
+
+
+def _rescale_words(records: list[dict[str, Any]]) -> str:
+    """What :func:`rescaled_by_fall` did, one line."""
+    if not records:
+        return "scale = \"gravity\": no flight's fall could be used; the stated scale stays"
+    parts = []
+    for basis in ("video", "campaign"):
+        group = [r for r in records if r["basis"] == basis]
+        if not group:
+            continue
+        f = [r["factor"] for r in group]
+        s = [100 * r["rel_sd"] for r in group]
+        off = [r["trials"][0] for r in group if not r["agrees"] and r["stated_rel_sd"]]
+        how = ("the fall's alone" if all(r["stated_rel_sd"] is None for r in group) else
+               "the fall and the stated scale combined" + (
+                   f"; the fall's alone where they disagree: {', '.join(off)}" if off else ""))
+        if basis == "video":
+            parts.append(f"each of {len(group)} videos with its own ball-diameter scale "
+                         f"corrected by its own flights' fall ({how}): speeds divided by "
+                         f"{min(f):.4f}-{max(f):.4f}, scale_rel_sd {min(s):.2f}-{max(s):.2f} %")
+        else:
+            parts.append(f"{len(group[0]['trials'])} trials sharing one calibration: every "
+                         f"speed divided by {f[0]:.4f} ({how}); scale_rel_sd {s[0]:.2f} %")
+    return "scale = \"gravity\": " + "; ".join(parts)
 
 
 def _spin_bound(experiment) -> float:

@@ -34,6 +34,8 @@ class Trajectory:
     ``quality``: the tracker's per-frame columns (``residual``, ``visible``) of the samples.
     ``position_sd``: the tracker's stated per-frame SD of its centres (m, per coordinate; its
     sidecar), a floor of the position noise in the flight fits (:func:`fit_bounces`).
+    ``calibration_source``: what set the scale, as the sidecar says ("ball diameter": each
+    video its own, "reference"); None without one.
     """
 
     t: np.ndarray
@@ -52,6 +54,7 @@ class Trajectory:
     quality: Mapping[str, np.ndarray] = field(default_factory=dict)
     position_sd: float | None = None
     provenance: Mapping[str, Any] | None = None
+    calibration_source: str | None = None
 
     @property
     def n(self) -> int:
@@ -162,7 +165,8 @@ def _build(rows: Rows, rotation_deg: float, length_unit: str, n_dropped: int,
                       surface_angle_sd_deg=sidecar.surface_angle_sd_deg if sidecar else None,
                       quality={k: _frozen(v) for k, v in rows.quality.items()},
                       position_sd=sidecar.position_sd if sidecar else None,
-                      provenance=provenance)
+                      provenance=provenance,
+                      calibration_source=sidecar.calibration_source if sidecar else None)
 
 
 def _check_count(rows: Rows, n_dropped: int) -> None:

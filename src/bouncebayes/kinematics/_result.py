@@ -60,7 +60,8 @@ class Kinematics:
     ``impact_acceleration_before``/``after``: the flights' accelerations at the impact (drag
     included) along the incident direction in the plane and along the normal, in the frame of
     the reported angles. ``fall``: the flights' fall against gravity, which measures the
-    length scale (:class:`~bouncebayes.kinematics._gravity.Fall`).
+    length scale (:class:`~bouncebayes.kinematics._gravity.Fall`); ``calibration_source``: what
+    set the trajectory's scale, as its tracker's sidecar says (None: not said).
     """
 
     incidence_speed: float
@@ -97,6 +98,7 @@ class Kinematics:
     impact_acceleration_before: tuple[float, float] | None = None
     impact_acceleration_after: tuple[float, float] | None = None
     fall: Fall | None = None
+    calibration_source: str | None = None
 
 
 def observables(v_in: np.ndarray, v_out: np.ndarray) -> list[float]:
