@@ -352,6 +352,7 @@ def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_
     docs/tracking.md §2-3), which each tracking record says (``ball.warning``) and `run` says
     once for all the videos, with their count."""
     from bouncebayes.pipeline import _track_videos
+    from bouncebayes.tracking import Surface
 
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from video_helpers import Bounce, Scene, render, write_video
@@ -367,7 +368,8 @@ def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_
     experiment = load_experiment(Path(__file__).resolve().parents[1] / "examples" / "paper.toml")
     lines: list[str] = []
     stage = tmp_path / "stage"
-    folder = _track_videos(videos, experiment, stage, lines.append, 1000.0, False)
+    folder = _track_videos(videos, experiment, stage, lines.append,
+                           {"fps": 1000.0, "surface": None}, False)
     warnings = [line for line in lines if "warning" in line]
     assert len(warnings) == 1, lines
     assert warnings[0].startswith("  warning, 2 of 2 videos (first b0.avi): the ball is ")
@@ -376,3 +378,14 @@ def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_
         record = json.loads((folder / f"{name}.track.json").read_text(encoding="utf-8"))
         assert record["calibration"]["relative_sd"] > 0.02
         assert "give --reference" in record["ball"]["warning"]
+        assert record["surface"]["source"] == "detected"
+    # `run --surface`: the same line for every video, recorded in each record's settings
+    points = ",".join(f"{v:g}" for v in scene.surface_points())
+    folder = _track_videos(videos, experiment, tmp_path / "stage2", lines.append,
+                           {"fps": 1000.0, "surface": points}, False)
+    for name in ("b0", "b1"):
+        record = json.loads((folder / f"{name}.track.json").read_text(encoding="utf-8"))
+        assert record["surface"]["source"] == "points"
+        assert record["settings"]["surface"] == points
+        assert record["surface"]["angle_deg"] == pytest.approx(
+            Surface.from_text(points).angle, abs=1e-9)

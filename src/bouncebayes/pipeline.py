@@ -84,11 +84,21 @@ def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], Non
                                    **fit_kwargs)
 
 
-def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
+def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
                   progress: bool) -> Path:
     """Track every video (or image-sequence folder) of ``data`` into ``stage/trajectories``,
-    with an overlay image per video in ``stage/tracking``; unusable videos are listed."""
-    from .tracking import compression_warning, radius_warning, track_video, write_track_files
+    with an overlay image per video in ``stage/tracking``; unusable videos are listed.
+    ``video``: ``fps`` and ``surface`` (``"X1,Y1,X2,Y2"`` or None: detected), as :func:`run`."""
+    from .tracking import (
+        Surface,
+        compression_warning,
+        radius_warning,
+        track_video,
+        write_track_files,
+    )
+
+    fps = video["fps"]
+    surface = None if video["surface"] is None else Surface.from_text(video["surface"])
 
     inputs = video_inputs(data)
     folder = stage / "trajectories"
@@ -97,19 +107,21 @@ def _track_videos(data: Path, experiment, stage: Path, log, fps: float | None,
     coded: list[tuple[str, str]] = []   # (video, the compression's warning)
     for path in _bar(inputs, progress, "videos"):
         try:
-            video = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter)
+            tracked_video = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter,
+                                        surface=surface)
         except InputFileError as exc:
             log(f"  skipped: {exc}")
             continue
         # the same files as `bouncebayes track`; <name>.track.json beside <name>.csv, where
         # the kinematics read its calibration uncertainty
-        write_track_files(video, folder, overlay_folder=stage / "tracking",
+        write_track_files(tracked_video, folder, overlay_folder=stage / "tracking",
                           settings={"fps": fps, "ball_diameter_m": experiment.ball.diameter,
+                                    "surface": video["surface"],
                                     "polarity": "auto", "background":
                                     "per-pixel median of frames"})
-        if (warning := radius_warning(video.track)) is not None:
+        if (warning := radius_warning(tracked_video.track)) is not None:
             warned.append((path.name, warning))
-        if (warning := compression_warning(video.source)) is not None:
+        if (warning := compression_warning(tracked_video.source)) is not None:
             coded.append((path.name, warning))
         tracked += 1
     for said in (warned, coded):  # one line, not one a video: a campaign shares its camera
@@ -170,7 +182,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         noise: str | None = None, discrepancy: str | None = None, progress: bool = False,
         log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
-        argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",),
+        surface: str | None = None, argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",),
         memory_budget: int | None = None, population: str | None = None) -> RunOutcome:
     """Run every stage into the run folder ``out``, which changes only if all succeed.
 
@@ -190,6 +202,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         truth: a synthetic campaign's ``truth.json``, copied in and shown in the report.
         fps: the frame rate of videos (required for image-sequence folders; overrides a video
             file's).
+        surface: videos: two pixel points on the surface line of every video,
+            ``"X1,Y1,X2,Y2"`` (one camera set-up); None: detected in each.
         argv: the command line, recorded in the provenance of every file.
         figure_formats: the files of each figure: PNG always, and "svg" or "pdf" if asked.
         memory_budget: as :func:`bouncebayes.inference.infer` (bytes; its default if None).
@@ -202,6 +216,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
                         seed=seed, argv=argv, config={
                             "likelihood": likelihood, "sampler": sampler, "noise": noise,
                             "discrepancy": discrepancy, "sampler_config": config, "fps": fps,
+                            "surface": surface,
                             "figure_formats": list(figure_formats),
                             "memory_budget": memory_budget})
     settings = dict(likelihood=likelihood, sampler=sampler, seed=seed, config=config,
@@ -214,7 +229,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     with staged_output(out, "folder") as stage:
         with contextlib.ExitStack() as background:
             result, prop = _analyse(experiment_path, data, stage, out, settings, times, log,
-                                    fps, truth, background)
+                                    {"fps": fps, "surface": surface}, truth, background)
             report = _draw(result, prop, stage, times, log, record, figure_formats, progress)
         stamp_tree(stage, record)
         carry_over(out, stage, log)
@@ -230,9 +245,10 @@ def _stage(k: int, name: str, log) -> float:
 
 
 def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings: dict,
-             times: dict, log, fps, truth, background: contextlib.ExitStack):
+             times: dict, log, video: dict, truth, background: contextlib.ExitStack):
     """Stages 1-3: the trial table, the posterior, its propagation (written into ``stage``;
-    the posterior's files perhaps by a forked copy that ``background`` waits for)."""
+    the posterior's files perhaps by a forked copy that ``background`` waits for); ``video``:
+    the videos' ``fps`` and ``surface`` (:func:`run`)."""
     from ._background import in_background
     from .data import load_experiment
     from .inference import infer, write_outputs
@@ -240,7 +256,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
 
     start = _stage(1, "data and kinematics", log)
     experiment = load_experiment(experiment_path)
-    trials = _trials(data, experiment, stage, out, log, fps, settings["progress"])
+    trials = _trials(data, experiment, stage, out, log, video, settings["progress"])
     shutil.copyfile(experiment_path, stage / EXPERIMENT_FILE)
     if truth is not None:
         shutil.copyfile(truth, stage / TRUTH_FILE)
@@ -268,7 +284,7 @@ def _analyse(experiment_path: Path, data: Path, stage: Path, out: Path, settings
     return result, prop
 
 
-def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
+def _trials(data: Path, experiment, stage: Path, out: Path, log, video: dict, progress):
     """The run's trials, and its copy of the trial table in ``stage``."""
     from ._provenance import file_sha256, read_provenance
     from .data import load_trials
@@ -279,7 +295,7 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, fps, progress):
     if kind == "table":
         shutil.copyfile(data, table)
         return load_trials(data, experiment)
-    folder = _track_videos(data, experiment, stage, log, fps, progress) \
+    folder = _track_videos(data, experiment, stage, log, video, progress) \
         if kind == "videos" else data
     _, results = trial_table(folder, experiment, table, log=log, progress=progress)
     # the fitted kinematics go on as they are, not back through the file just written

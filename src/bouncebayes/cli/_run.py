@@ -8,6 +8,7 @@ from pathlib import Path
 
 from ._common import (add_figure_formats, add_sampler_arguments, check_out_folder, flag_names,
                       inference_options, log, real, sampler_config, show_progress)
+from ._track import SURFACE_HELP
 
 HELP = "the whole job: data -> kinematics -> inference -> propagation -> figures -> report"
 DESCRIPTION = ("Run every stage on DATA and put all results in DIR: trial table, posterior.nc, "
@@ -41,6 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="frame rate of the videos in frames/s (needed for folders of image "
                         "frames; overrides the rate stored in a video file, which high-speed "
                         "cameras often set to the playback rate)")
+    p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
+                   help=f"videos: {SURFACE_HELP} of each video (one camera set-up)")
     add_figure_formats(p)
     add_sampler_arguments(p)
 
@@ -88,10 +91,15 @@ def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | N
     check_out_folder("--out", args.out)
     if getattr(args, "fps", None) is not None:
         check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
+    surface = getattr(args, "surface", None)
+    if surface is not None:
+        from ..tracking import Surface
+
+        Surface.from_text(surface)  # checked before any work
     config = sampler_config(args, experiment)
     outcome = run(experiment, data, args.out, sampler=args.sampler, seed=args.seed,
                   config=config, progress=show_progress(args), log=log, truth=truth,
-                  fps=getattr(args, "fps", None), argv=args.argv,
+                  fps=getattr(args, "fps", None), surface=surface, argv=args.argv,
                   figure_formats=args.figure_formats, **inference_options(args))
     print(flag_names(outcome.table, args.flags))
     print(flag_names(outcome.verdict, args.flags))

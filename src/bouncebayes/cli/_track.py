@@ -52,9 +52,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                        help="scale from two pixel points a known distance apart, optionally "
                             "with the distance's standard deviation (m), which becomes the "
                             "scale's stated uncertainty")
-    p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
-                   help="two pixel points on the surface line; if not given, it is detected as "
-                        "the longest straight edge of the background")
+    p.add_argument("--surface", metavar="X1,Y1,X2,Y2", help=SURFACE_HELP)
     p.add_argument("--polarity", choices=POLARITIES, default=TrackerConfig.polarity,
                    help="ball brighter or darker than its surroundings, or decide from the "
                         "video")
@@ -92,6 +90,10 @@ def parse_numbers(option: str, text: str, names: tuple[str, ...]) -> list[float]
     return values
 
 
+SURFACE_HELP = ("two pixel points on the surface line; if not given, it is detected as the "
+                "longest straight edge of the background")
+
+
 def _settings(args: argparse.Namespace) -> dict:
     """The tracker's options, checked, as keyword arguments of ``track_video``."""
     from .._validate import check_scalar
@@ -112,11 +114,7 @@ def _settings(args: argparse.Namespace) -> dict:
         except ValueError as exc:
             raise ValueError(f"`--reference` {args.reference}: {exc}") from None
     if args.surface is not None:
-        x1, y1, x2, y2 = parse_numbers("--surface", args.surface, ("X1", "Y1", "X2", "Y2"))
-        try:
-            surface = Surface.from_points((x1, y1), (x2, y2))
-        except ValueError as exc:
-            raise ValueError(f"`--surface` {args.surface}: {exc}") from None
+        surface = Surface.from_text(args.surface)
     if args.fps is not None:
         check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
     check_scalar("--ball-diameter", args.ball_diameter, unit="m", low=0.0, low_open=True)

@@ -91,6 +91,22 @@ class Surface:
         return cls(point=a, direction=((b[0] - a[0]) / length, (b[1] - a[1]) / length),
                    source="points")
 
+    @classmethod
+    def from_text(cls, text: str, option: str = "--surface") -> Surface:
+        """``"X1,Y1,X2,Y2"`` (as the command line's ``option`` gives it): two points on the
+        surface line. ``ValueError`` naming the option and what was received otherwise."""
+        try:
+            values = [float(v) for v in str(text).split(",")]
+        except ValueError:
+            values = []
+        if len(values) != 4 or not all(math.isfinite(v) for v in values):
+            raise ValueError(f"`{option}` must be X1,Y1,X2,Y2 (4 numbers separated by commas); "
+                             f"got {text!r}")
+        try:
+            return cls.from_points(values[:2], values[2:])
+        except ValueError as exc:
+            raise ValueError(f"`{option}` {text}: {exc}") from None
+
     @property
     def angle(self) -> float:
         """Inclination in the image, degrees in (-90, 90], counter-clockwise from the +x axis
