@@ -873,14 +873,14 @@ def test_run_writes_the_same_tracking_record_as_track(noisy, tmp_path, capsys):
     write_video(frames, data / "throw.avi", 1000.0)
     stage = tmp_path / "stage"
     experiment = SimpleNamespace(ball=SimpleNamespace(diameter=scene.ball_diameter))
-    folder = _track_videos(data, experiment, stage, print, None, False)
+    folder = _track_videos(data, experiment, stage, print, {"fps": None, "surface": None}, False)
     run_record = json.loads((folder / "throw.track.json").read_text())
     x1, y1, x2, y2 = scene.surface_points()
     assert run_cli(["track", str(data / "throw.avi"), "--out", str(tmp_path / "out")]) == 0
     track_record = json.loads((tmp_path / "out" / "throw.track.json").read_text())
     track_record.pop("provenance")
     assert set(run_record) == set(track_record)
-    for key in ("calibration", "surface", "ball", "quality"):
+    for key in ("calibration", "surface", "ball", "quality", "gravity"):
         assert run_record[key] == track_record[key]
     assert run_record["calibration"]["relative_sd"] > 0
     assert (stage / "tracking" / "throw.overlay.png").exists()
