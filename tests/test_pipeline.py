@@ -389,3 +389,22 @@ def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_
         assert record["settings"]["surface"] == points
         assert record["surface"]["angle_deg"] == pytest.approx(
             Surface.from_text(points).angle, abs=1e-9)
+
+
+def test_scale_gravity_on_a_trial_table_is_said_to_do_nothing(tmp_path, demo):
+    """A trial table holds no flights, so `scale = "gravity"` cannot act on it: `run` says so
+    in one line and takes the table's speeds as they are."""
+    import dataclasses
+
+    from bouncebayes.pipeline import _trials
+
+    experiment = load_experiment(demo.experiment)
+    settings = dict(experiment.trajectories) | {"scale": "gravity"}
+    experiment = dataclasses.replace(experiment, trajectories=settings)
+    lines: list[str] = []
+    trials = _trials(demo.trials, experiment, tmp_path, tmp_path / "out", lines.append,
+                     {"fps": None, "surface": None}, False)
+    assert lines == ["  note: `scale = \"gravity\"` in [trajectories] needs the flights, which a "
+                     "trial table does not hold: its speeds are taken as they are"]
+    np.testing.assert_array_equal(trials.rebound_speed,
+                                  load_trials(demo.trials, experiment).rebound_speed)

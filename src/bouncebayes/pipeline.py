@@ -293,6 +293,9 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, video: dict, pr
     kind = data_kind(data)
     table = stage / TRIALS_FILE
     if kind == "table":
+        if experiment.trajectories["scale"] == "gravity":
+            log("  note: `scale = \"gravity\"` in [trajectories] needs the flights, which a "
+                "trial table does not hold: its speeds are taken as they are")
         shutil.copyfile(data, table)
         return load_trials(data, experiment)
     folder = _track_videos(data, experiment, stage, log, video, progress) \

@@ -493,7 +493,8 @@ def _scale_note(trials) -> list[str]:
     record = ((trials.provenance or {}).get("kinematics") or {}).get("gravity") or {}
     if "summary" not in record:
         return []
-    text = html.escape(record["summary"].removeprefix("gravity: ")).replace("\n  warning:", "<br><b>Warning:</b>")
+    text = html.escape(record["summary"].removeprefix("gravity: ")).replace(
+        "\n  warning:", "<br><b>Warning:</b>").replace("+-", "&plusmn;")
     applied = ("" if "applied_words" not in record else
                f" The lengths were corrected by it: {html.escape(record['applied_words'])}.")
     return [f"<p><b>Length scale</b> (the free flights' fall against g): {text}.{applied}</p>"]

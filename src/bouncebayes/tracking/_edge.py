@@ -151,7 +151,7 @@ SMALL_FIT_BLUR = 0.4
 # 60..30, 10 px by up to 3.4 % and 6.3-7.9 %, 15 px by at most 1.3 % (|z| up to 5.9 with the
 # terms above: docs/tracking.md §3). So COMPRESSION_PX (px) in quadrature with either
 # method's systematic error, ramped linearly from a quality of COMPRESSION_FROM (none) to
-# COMPRESSION_FULL (full): those scenes |z| <= 2.3 (RMS 0.2-1.3 per quality and radius;
+# COMPRESSION_FULL (full): those scenes |z| <= 2.44 (RMS 0.77; per quality and radius up to 1.3;
 # generous at 15 px). OpenCV's MJPEG writer codes at ~80-90: untouched.
 COMPRESSION_PX = 0.3
 COMPRESSION_FROM, COMPRESSION_FULL = 80.0, 60.0
