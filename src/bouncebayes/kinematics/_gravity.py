@@ -201,8 +201,11 @@ class GravityScale:
         return (f"{head}\n  warning: that is {abs(self.z or 0.0):.1f} SD given {stated}: the "
                 "scale (--ball-diameter or --reference) is off, or the frame rate (the fall "
                 f"is g at {math.sqrt(self.gravity / self.fall):.4g} times the rate used), or "
-                "the filmed plane does not hold the vertical; check them, or set `scale = "
-                "\"gravity\"` in [trajectories] to correct the lengths by the fall")
+                "the filmed plane does not hold the vertical"
+                + ("" if self.drag_corrected else ", or the air's drag on a light ball (not "
+                   "corrected here; the kinematics correct it for the experiment's ball)")
+                + "; check them, or set `scale = \"gravity\"` in [trajectories] to correct "
+                "the lengths by the fall")
 
 
 def gravity_scale(falls: Sequence[Fall], gravity: float,
