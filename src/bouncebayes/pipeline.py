@@ -182,8 +182,9 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         noise: str | None = None, discrepancy: str | None = None, progress: bool = False,
         log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
-        surface: str | None = None, argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",),
-        memory_budget: int | None = None, population: str | None = None) -> RunOutcome:
+        surface: str | None = None, argv: Sequence[str] | None = None,
+        figure_formats: Sequence[str] = ("png",), memory_budget: int | None = None,
+        population: str | None = None) -> RunOutcome:
     """Run every stage into the run folder ``out``, which changes only if all succeed.
 
     Arguments:
