@@ -408,3 +408,40 @@ def test_scale_gravity_on_a_trial_table_is_said_to_do_nothing(tmp_path, demo):
                      "trial table does not hold: its speeds are taken as they are"]
     np.testing.assert_array_equal(trials.rebound_speed,
                                   load_trials(demo.trials, experiment).rebound_speed)
+
+
+def test_run_on_videos_names_the_one_whose_fall_disagrees_with_its_scale(tmp_path):
+    """Three videos of one set-up, one of them stamped with half its frame rate (a file whose
+    playback rate is not the camera's): without --fps each is read at its file's rate, and that
+    one's flights fall at g / 4 (closed form: every time twice as long), which `run` says once,
+    naming it and the rate at which the fall would be g (about 2 times the one used)."""
+    import re
+
+    from bouncebayes.pipeline import _track_videos
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from video_helpers import Bounce, Scene, render, write_video
+
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    for i, fps in enumerate((1000.0, 500.0, 1000.0)):
+        scene = Scene(width=224, height=64, radius_px=5.0, n_frames=160,
+                      surface_point=(0.0, 52.0), inclination=3.0, exposure=0.5,
+                      noise_sigma=3.0, seed=2030 + i)
+        write_video(render(scene, Bounce(speed_in=2.0, angle_in=35.0, t_contact=0.08,
+                                         x_contact=0.05)), videos / f"b{i}.avi", fps)
+    experiment = load_experiment(Path(__file__).resolve().parents[1] / "examples" / "paper.toml")
+    lines: list[str] = []
+    points = ",".join(f"{v:g}" for v in scene.surface_points())
+    folder = _track_videos(videos, experiment, tmp_path / "stage", lines.append,
+                           {"fps": None, "surface": points}, False)
+    fell = [line for line in lines if "free flights fall" in line]
+    assert len(fell) == 1, lines
+    assert fell[0].startswith("  warning, 1 of 3 videos (first b1.avi): ")
+    rate = float(re.search(r"the fall is g at ([\d.]+) times the rate used", fell[0]).group(1))
+    assert rate == pytest.approx(2.0, abs=0.1)
+    record = json.loads((folder / "b1.track.json").read_text(encoding="utf-8"))
+    # in the tracker's metres, whose scale is its own (the ball's radius: ~2 % here)
+    scale = record["calibration"]["metres_per_pixel"] / scene.metres_per_px
+    fall = record["gravity"]
+    assert fall["fall_m_s2"] == pytest.approx(9.81 / 4 * scale, abs=3 * fall["fall_se_m_s2"])

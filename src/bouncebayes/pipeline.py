@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import json
 import shutil
 import tempfile
 import time
@@ -105,6 +106,7 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
     tracked = 0
     warned: list[tuple[str, str]] = []  # (video, the scale's warning) (tracking record)
     coded: list[tuple[str, str]] = []   # (video, the compression's warning)
+    fell: list[tuple[str, str]] = []    # (video, its flights' fall against its scale)
     for path in _bar(inputs, progress, "videos"):
         try:
             tracked_video = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter,
@@ -114,17 +116,20 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
             continue
         # the same files as `bouncebayes track`; <name>.track.json beside <name>.csv, where
         # the kinematics read its calibration uncertainty
-        write_track_files(tracked_video, folder, overlay_folder=stage / "tracking",
-                          settings={"fps": fps, "ball_diameter_m": experiment.ball.diameter,
-                                    "surface": video["surface"],
-                                    "polarity": "auto", "background":
-                                    "per-pixel median of frames"})
+        files = write_track_files(tracked_video, folder, overlay_folder=stage / "tracking",
+                                  settings={"fps": fps,
+                                            "ball_diameter_m": experiment.ball.diameter,
+                                            "surface": video["surface"], "polarity": "auto",
+                                            "background": "per-pixel median of frames"})
+        check = json.loads(files["record"].read_text(encoding="utf-8"))["gravity"]
+        if check is not None and not check["agrees"]:  # e.g. one file's frame rate is wrong
+            fell.append((path.name, check["summary"].replace("\n  warning: ", ": ")))
         if (warning := radius_warning(tracked_video.track)) is not None:
             warned.append((path.name, warning))
         if (warning := compression_warning(tracked_video.source)) is not None:
             coded.append((path.name, warning))
         tracked += 1
-    for said in (warned, coded):  # one line, not one a video: a campaign shares its camera
+    for said in (warned, coded, fell):  # one line, not one a video: one camera
         if said:
             log(f"  warning, {len(said)} of {tracked} videos (first {said[0][0]}): "
                 f"{said[0][1]}")

@@ -204,8 +204,9 @@ class GravityScale:
                 "the filmed plane does not hold the vertical"
                 + ("" if self.drag_corrected else ", or the air's drag on a light ball (not "
                    "corrected here; the kinematics correct it for the experiment's ball)")
-                + "; check them, or set `scale = \"gravity\"` in [trajectories] to correct "
-                "the lengths by the fall")
+                + "; check them (a wrong frame rate needs --fps: the fall cannot mend it), "
+                "and where the scale is what is off, `scale = \"gravity\"` in [trajectories] "
+                "corrects the lengths by the fall")
 
 
 def gravity_scale(falls: Sequence[Fall], gravity: float,
