@@ -868,14 +868,17 @@ def test_gates_reject_the_generator_bounces_fitted_without_drag(tmp_path):
 
 # ------------------------------------------------------- the fall against gravity: the scale
 
-def test_a_flights_fall_is_g_times_the_length_scale_with_honest_errors():
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_flights_fall_is_g_times_the_length_scale_with_honest_errors(dim):
     """Closed form: every length s times the true one makes the fall s g. Over 150 bounces
-    (300 flights, lengths x 1.03, 0.2 mm noise) the z-scores of the fall against 1.03 g must
-    have mean within 4/sqrt(n) of 0 and SD within [0.85, 1.15]."""
+    (300 flights, lengths x 1.03, 0.2 mm noise; in 3-D with the plane of incidence at 20 deg
+    and a lateral rebound) the z-scores of the fall against 1.03 g must have mean within
+    4/sqrt(n) of 0 and SD within [0.85, 1.15]."""
     rng = np.random.default_rng(31)
     z = []
     for _ in range(150):
-        t, pos = bounce(rng)
+        t, pos = bounce(rng, dim=dim, azimuth=20.0 if dim == 3 else 0.0,
+                        lateral=5.0 if dim == 3 else 0.0)
         fall = fit_arrays(t, 1.03 * pos).fall
         z += [(v - 1.03 * G) / s for v, s in zip(fall.value, fall.se, strict=True)]
     z = np.array(z)
