@@ -8,7 +8,6 @@ from pathlib import Path
 
 from ._common import (add_figure_formats, add_sampler_arguments, check_out_folder, flag_names,
                       inference_options, log, real, sampler_config, show_progress)
-from ._track import SURFACE_HELP
 
 HELP = "the whole job: data -> kinematics -> inference -> propagation -> figures -> report"
 DESCRIPTION = ("Run every stage on DATA and put all results in DIR: trial table, posterior.nc, "
@@ -43,7 +42,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "frames; overrides the rate stored in a video file, which high-speed "
                         "cameras often set to the playback rate)")
     p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
-                   help=f"videos: {SURFACE_HELP} of each video (one camera set-up)")
+                   help="videos: two pixel points on the surface line, the same in every video "
+                        "(one camera set-up); if not given, it is detected in each video as the "
+                        "longest straight edge of its background")
     add_figure_formats(p)
     add_sampler_arguments(p)
 

@@ -52,7 +52,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                        help="scale from two pixel points a known distance apart, optionally "
                             "with the distance's standard deviation (m), which becomes the "
                             "scale's stated uncertainty")
-    p.add_argument("--surface", metavar="X1,Y1,X2,Y2", help=SURFACE_HELP)
+    p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
+                   help="two pixel points on the surface line; if not given, it is detected as "
+                        "the longest straight edge of the background")
     p.add_argument("--polarity", choices=POLARITIES, default=TrackerConfig.polarity,
                    help="ball brighter or darker than its surroundings, or decide from the "
                         "video")
@@ -88,10 +90,6 @@ def parse_numbers(option: str, text: str, names: tuple[str, ...]) -> list[float]
         raise ValueError(f"`{option}` must be {form} ({len(names)} numbers separated by "
                          f"commas); got {text!r}")
     return values
-
-
-SURFACE_HELP = ("two pixel points on the surface line; if not given, it is detected as the "
-                "longest straight edge of the background")
 
 
 def _settings(args: argparse.Namespace) -> dict:
