@@ -1141,6 +1141,13 @@ def test_a_bad_stated_centre_error_names_the_sidecar_field(tmp_path):
     path.with_name("b.track.json").write_text('{"ball": {"centre_sd_px": -1}}', encoding="utf-8")
     with pytest.raises(InputFileError, match=r"b\.track\.json.*ball\.centre_sd_px.*>= 0"):
         read_trajectory(path)
+    path.with_name("b.track.json").write_text('{"calibration": {"source": 3}}', encoding="utf-8")
+    with pytest.raises(InputFileError, match=r"b\.track\.json.*calibration\.source.*must be a "
+                                             r"string; got 3"):
+        read_trajectory(path)
+    path.with_name("b.track.json").write_text('{"calibration": {"source": "ball diameter"}}',
+                                              encoding="utf-8")
+    assert read_trajectory(path).calibration_source == "ball diameter"
 
 
 def test_the_correlated_error_model_is_its_dense_covariance():

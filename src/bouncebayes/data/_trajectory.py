@@ -354,7 +354,8 @@ def read_track_sidecar(trajectory_path: str | os.PathLike) -> TrackSidecar | Non
     sd_px, mpp = values["centre_sd_px"], values["metres_per_pixel"]
     source = (data.get("calibration") or {}).get("source")
     if source is not None and not isinstance(source, str):
-        raise InputFileError(path, f"must be a string; got {source!r}", field="calibration.source")
+        raise InputFileError(path, f"must be a string; got {source!r}",
+                             field="calibration.source")
     return TrackSidecar(os.fspath(path), values["relative_sd"], values["angle_sd_deg"],
                         None if sd_px is None or mpp is None else sd_px * mpp, source)
 
