@@ -36,9 +36,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from _gravity_check import fall_check  # noqa: E402
 from render_pbr import Shot, Throw, render, write  # noqa: E402
+from tracking_accuracy import LIGHTING  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "gravity_scale.json"
-DARK = dict(albedo=0.12, ambient=0.5, wall=170.0, plane=150.0, texture=12.0)
+DARK = LIGHTING["dark"]
 DIAMETER = 0.0256
 
 
