@@ -421,15 +421,17 @@ def test_track_command_checks_the_scale_and_the_frame_rate_against_the_fall(nois
         out = tmp_path / f"out{fps}"
         assert run_cli(["track", str(folder), "--out", str(out), "--fps", str(fps),
                         "--surface", f"{x1},{y1},{x2},{y2}"]) == 0
-        said[fps] = (capsys.readouterr().out,
-                     json.loads((out / "throw1.track.json").read_text())["gravity"])
-    text, right = said[1000]
+        record = json.loads((out / "throw1.track.json").read_text())
+        # the fall is in the tracker's metres, whose scale (the ball's edge) is its own
+        scale = record["calibration"]["metres_per_pixel"] / scene.metres_per_px
+        said[fps] = (capsys.readouterr().out, record["gravity"], scale)
+    text, right, scale = said[1000]
     assert right["agrees"] and right["n_flights"] == 2 and not right["drag_corrected"]
-    assert abs(right["fall_m_s2"] - 9.81) < 3 * right["fall_se_m_s2"]
+    assert abs(right["fall_m_s2"] - 9.81 * scale) < 3 * right["fall_se_m_s2"]
     assert re.search(r"\n  gravity: the 2 free flights fall at .*: consistent", text)
-    text, wrong = said[800]
+    text, wrong, scale = said[800]
     assert not wrong["agrees"]
-    assert abs(wrong["fall_m_s2"] - 9.81 / 1.25**2) < 3 * wrong["fall_se_m_s2"]
+    assert abs(wrong["fall_m_s2"] - 9.81 / 1.25**2 * scale) < 3 * wrong["fall_se_m_s2"]
     rate = float(re.search(r"the fall is g at ([\d.]+) times the rate used", text).group(1))
     assert rate == pytest.approx(1.25, abs=0.02)
     assert "\n  warning: that is" in text
