@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from bouncebayes._provenance import read_provenance
 from bouncebayes.cli import main
 from bouncebayes.pipeline import data_kind
 
@@ -218,8 +219,19 @@ def test_run_goes_from_a_folder_of_videos_to_a_report(tmp_path, capsys):
     assert "3 of 3 trajectory files gave kinematics" in printed.err
     # the flights' fall checks the scale (the renders fall at 9.81 m/s^2), and the report says it
     assert re.search(r"gravity: the 6 free flights fall at .* consistent", printed.err)
-    assert "<b>Length scale</b> (the free flights' fall against g): the 6 free flights" in (
-        out / "report.html").read_text()
+    report = (out / "report.html").read_text()
+    assert "<b>Length scale</b> (the free flights' fall against g): the 6 free flights" in report
+    # the tracking: one row per video from its record, and the first video's overlay
+    assert "<h2>Tracking</h2>" in report and "<p>3 videos tracked" in report
+    for name in ("bounce_a", "bounce_b", "bounce_c"):
+        assert f"<tr><td>{name}</td>" in report
+    assert 'alt="tracked positions over the frames"' in report
+    # the run's trial table keeps its kinematics' record, so a rebuilt report shows both again
+    assert "gravity" in read_provenance(out / "trials.csv")["kinematics"]
+    (out / "report.html").unlink()
+    assert main(["report", str(out)]) == 0
+    rebuilt = (out / "report.html").read_text()
+    assert "<b>Length scale</b>" in rebuilt and "<h2>Tracking</h2>" in rebuilt
     # a 12 px ball: its edge gives the scale to ~1 %, nothing to warn about (see
     # test_pipeline.py for the warning of small balls)
     assert "warning" not in printed.err

@@ -22,7 +22,7 @@ from typing import Any
 
 from ._errors import InputFileError
 from ._io import is_temporary, link_or_copy, staged_output
-from ._provenance import provenance, stamp, stamp_tree
+from ._provenance import provenance, read_provenance, stamp, stamp_tree
 
 TRAJECTORY_SUFFIXES = (".csv", ".txt")
 EXPERIMENT_FILE, TRIALS_FILE, TRUTH_FILE = "experiment.toml", "trials.csv", "truth.json"
@@ -237,7 +237,12 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
             result, prop = _analyse(experiment_path, data, stage, out, settings, times, log,
                                     {"fps": fps, "surface": surface}, truth, background)
             report = _draw(result, prop, stage, times, log, record, figure_formats, progress)
+        # the trial table keeps what its kinematics recorded (settings, inputs, the scale's
+        # check against the flights' fall), which `bouncebayes report` shows again
+        kinematics = (read_provenance(stage / TRIALS_FILE) or {}).get("kinematics")
         stamp_tree(stage, record)
+        if kinematics is not None:
+            stamp(stage / TRIALS_FILE, dict(record) | {"kinematics": kinematics})
         carry_over(out, stage, log)
     from .inference import format_table
 

@@ -500,6 +500,43 @@ def _scale_note(trials) -> list[str]:
     return [f"<p><b>Length scale</b> (the free flights' fall against g): {text}.{applied}</p>"]
 
 
+def _tracking_section(folder: str | Path) -> list[str]:
+    """Where the run tracked videos: one row per video from its tracking record (frames, the
+    ball's radius, the scale with its stated SD, what the flights' fall says, the record's
+    warnings in words) and the first video's overlay image."""
+    records = sorted((Path(folder) / "trajectories").glob("*.track.json"))
+    if not records:
+        return []
+    rows = []
+    for path in records:
+        r = json.loads(path.read_text(encoding="utf-8"))
+        cal, fall, q = r["calibration"], r.get("gravity"), r["quality"]
+        sd = cal.get("relative_sd")
+        said = [w for w in (r["ball"].get("warning"), r.get("compression_warning"),
+                            None if fall is None or fall["agrees"] else fall["summary"]) if w]
+        rows.append([path.name.removesuffix(".track.json"),
+                     f"{q['found']} of {r['frames']} ({q['flagged']} flagged)",
+                     f"{r['ball']['radius_px']:.3g}",
+                     f"{1e3 * cal['metres_per_pixel']:.4g}"
+                     + ("" if sd is None else f" ± {100 * sd:.2g} %") + f" ({cal['source']})",
+                     "-" if fall is None else f"{100 * (fall['scale'] - 1):+.2f} ± "
+                                              f"{100 * fall['scale_sd']:.2f} %",
+                     "; ".join(said) or "none"])
+    header = ["video", "frames with the ball", "radius (px)", "scale (mm/px)",
+              "lengths off by (the fall)", "warnings"]
+    overlay = Path(folder) / "tracking" / f"{rows[0][0]}.overlay.png"
+    figure = ([f"<figure>{_img(overlay, 'tracked positions over the frames')}<figcaption>"
+               f"{html.escape(rows[0][0])}: every tracked centre over a superposition of the "
+               "frames (flagged frames in magenta), the ball's edge, the surface line and a "
+               "scale bar.</figcaption></figure>"] if overlay.is_file() else [])
+    return ["<h2>Tracking</h2>",
+            f"<p>{len(rows)} videos tracked (each record: <code>trajectories/"
+            "&lt;video&gt;.track.json</code>); the scale from the ball's diameter and its "
+            "edge, with its stated uncertainty; \"lengths off by\": what the video's own "
+            "free flights' fall against standard gravity says of that scale "
+            "(docs/tracking.md §5).</p>", _table(rows, header), *figure]
+
+
 def _prediction_section(prop_summary: dict) -> list[str]:
     at = prop_summary["at_nominal_incidence"]
     pred_rows = [[k.replace("_", " "), v["unit"], f"{v['mean']:.4g}", f"{v['sd']:.3g}",
@@ -543,6 +580,7 @@ def render_report(result: InferenceResult, prop_summary: dict, figures, folder: 
                 f"<p class='meta'>{html.escape(e.description)}</p>",
                 *_result_section(result, truth), *_population_section(result),
                 *_experiment_section(result),
+                *_tracking_section(folder),
                 *_prediction_section(prop_summary), *_derived_section(folder),
                 *_figures_section(figures),
                 *_provenance_section(result, provenance)]
