@@ -169,13 +169,17 @@ def median_and_se(values: np.ndarray) -> tuple[float, float]:
     return med, 1.2533 * 1.4826 * float(np.median(np.abs(values - med))) / math.sqrt(len(values))
 
 
+def _ramp(x: float, zero_at: float, full_at: float) -> float:
+    """0 at ``zero_at``, 1 at ``full_at``, linear between and flat beyond (either order)."""
+    return min(max((x - zero_at) / (full_at - zero_at), 0.0), 1.0)
+
+
 def psf_shape_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's radius error (px) that the lens blur's unknown shape allows:
     ``PSF_SHAPE_REL`` of the radius, ramped linearly from a fitted blur of ``PSF_SHAPE_FROM``
     of the radius (zero) to ``PSF_SHAPE_TO`` (full)."""
     blur = 0.0 if blur_px is None else blur_px
-    ramp = (blur / radius_px - PSF_SHAPE_FROM) / (PSF_SHAPE_TO - PSF_SHAPE_FROM)
-    return PSF_SHAPE_REL * radius_px * min(max(ramp, 0.0), 1.0)
+    return PSF_SHAPE_REL * radius_px * _ramp(blur / radius_px, PSF_SHAPE_FROM, PSF_SHAPE_TO)
 
 
 def compression_px(jpeg_quality: float | None) -> float:
@@ -184,8 +188,7 @@ def compression_px(jpeg_quality: float | None) -> float:
     where the quality is not known (uncompressed frames, MPEG-4, H.264)."""
     if jpeg_quality is None or not math.isfinite(jpeg_quality):
         return 0.0
-    ramp = (COMPRESSION_FROM - jpeg_quality) / (COMPRESSION_FROM - COMPRESSION_FULL)
-    return COMPRESSION_PX * min(1.0, max(0.0, ramp))
+    return COMPRESSION_PX * _ramp(jpeg_quality, COMPRESSION_FROM, COMPRESSION_FULL)
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:

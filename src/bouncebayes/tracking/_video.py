@@ -75,14 +75,15 @@ _ZIGZAG = sorted(((i, j) for i in range(8) for j in range(8)),
                  key=lambda ij: (ij[0] + ij[1], ij[0] if (ij[0] + ij[1]) % 2 else ij[1]))
 _IJG_LUMA_ZIGZAG = np.array([_IJG_LUMA[i, j] for i, j in _ZIGZAG])
 _SCAN_BYTES = 1 << 22  # bytes of a video file searched for its first JPEG frames
+_TABLES = 25  # frames whose tables are read (an encoder's rate control may vary them)
 
 
 def jpeg_quality(path: str | os.PathLike) -> float | None:
     """The JPEG quality of a video's frames (MJPEG) or of a folder's first JPEG file: the median
     over up to ``_TABLES`` frames of the IJG quality (1-100) whose luminance table is as coarse
     as the frame's (the median ratio of the two tables, libjpeg's scaling ``S = 5000 / Q``
-    below 50, ``200 - 2 Q`` above); None where the frames are not JPEG-coded (PNG, TIFF, MPEG-4, H.264, ...) or
-    no table is found. Written here: OpenCV decodes the frames and hides their coding."""
+    below 50, ``200 - 2 Q`` above); None where the frames are not JPEG-coded (PNG, TIFF,
+    MPEG-4, H.264, ...) or no table is found. Written here: OpenCV decodes the frames and hides their coding."""
     path = Path(path)
     try:
         if path.is_dir():
@@ -95,9 +96,6 @@ def jpeg_quality(path: str | os.PathLike) -> float | None:
         return None
     qualities = [_ijg_quality(t) for t in _luma_tables(data, _TABLES)]
     return round(float(np.median(qualities)), 1) if qualities else None
-
-
-_TABLES = 25  # frames whose tables are read (an encoder's rate control may vary them)
 
 
 def _ijg_quality(table: np.ndarray) -> float:
