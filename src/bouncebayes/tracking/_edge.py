@@ -5,12 +5,16 @@ its polar angle ``t_i``; ``u_i = r - rho_i`` is its depth inside the rim. The gr
 background ``B`` where the ball does not cover it and the ball's radiance where it does, both
 blurred::
 
-    I_i = B_i (1 - S_i) + sum_j beta_j f_j(u_i, t_i) + (1 - S_i) (o_0 + o_1 cos t + o_2 sin t)
+    I_i = B_i (1 - S_i) - k grad B_i . grad S_i + sum_j beta_j f_j(u_i, t_i)
+          + (1 - S_i) (o_0 + o_1 cos t + o_2 sin t)
 
 - ``S = E[1{u + e > 0}] = Phi(u / s)``, ``e ~ N(0, s_i^2)``: the blurred step of the rim, with
   ``s_i^2 = sigma^2 + 1/12 + (a v)^2 cos^2(t_i - t_v) / 12``: a Gaussian lens blur, the pixel's
   own width, and the exposure's smear along the ball's direction of motion (``a`` the exposure
   as a fraction of the frame interval, ``v`` the ball's speed in px per frame);
+- the wall the ball hides: the ball covers the wall before the lens blurs it, and ``- k grad B
+  . grad S`` (``k = sigma^2 + 1/12``) is that to first order in the wall's gradient
+  (:func:`._edge_kernel._row`; not for a ball under ``OCCLUSION_MIN_RADIUS``);
 - the edge's curvature: blur along the rim moves the half-level inwards by ``s_t^2 / (2 r)``
   (``s_t`` the blur along the tangent), so the step sits at ``r - s_t^2 / (2 r)``;
 - the ball's radiance ``f_j``: the nine spherical harmonics of the surface normal up to order 2
@@ -40,8 +44,9 @@ call, :func:`._edge_kernel.varpro`) from the best point of a grid
 of radius and blur (the model has local minima where blur trades against the shading near the
 rim). Saturated pixels (a specular highlight) are left out, and pixels the smooth model cannot
 follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass.
-:func:`fit_radius` fits ~9 frames alone, then again with the blur and exposure held at their
-medians (shared by the video: one lens, one exposure), and takes the median radius. Written
+:func:`fit_radius` fits 5 frames alone, then 9 again with the blur and exposure held at their
+medians (shared by the video: one lens, one exposure), and takes the median radius; 13 and 25
+where the ball is blurred by ``BLURRED`` of its radius or more. Written
 here because no library fits a blurred, shaded disk.
 """
 
@@ -49,7 +54,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -58,6 +63,20 @@ RIM_ORDER = 4      # harmonics of the rim level in the polar angle
 INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
 MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
 FIRST_FRAMES = 5   # of which fitted with blur and exposure free
+# ... and where those free fits find a blur of at least BLURRED of the radius, up to
+# MAX_FRAMES_BLURRED frames, FIRST_FRAMES_BLURRED of them free. There the radius trades against
+# the blur (a 10 px ball blurred by 1.5 px: -4 px of radius per px of blur), so the blur the
+# fits hold, the median of the free fits', sets the radius' error: over three seeds of
+# benchmarks/tracking_accuracy.py's scenes at radius 10-15 px (blur 0.7 and 1.5 px; 81 scenes;
+# 2026-11-28) 42 within 0.5 % with 9 / 5 frames, 46 with 17 / 9 and 52 with 25 / 13 (RMS
+# error at 15 px and blur 1.5 px 1.21 -> 0.57 %), at 2.5x the edge model's CPU time there.
+# Not for a ball whose fits find a radius under MORE_FRAMES_MIN_RADIUS px (as
+# ._refine.SMALL_RADIUS: there the small-ball fit gives the radius, and the paper's camera's
+# speed target, 5000 frames/s at 224 x 64 px, has no room for them)
+BLURRED = 0.05
+MAX_FRAMES_BLURRED = 25
+FIRST_FRAMES_BLURRED = 13
+MORE_FRAMES_MIN_RADIUS = 8.0
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
 XTOL = FTOL = 1e-4  # the fits' tolerances (as SciPy's least_squares') ...
 MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic change, 2-5x
@@ -83,6 +102,16 @@ SHADOW_MIN_GAIN = 15.0
 # blurred step (radius 10 px, blur 1.5 px, plain wall: side-lit -1.35 -> +2.47 %, glossy -1.08
 # -> -2.92 %; at 15 px, blur 1.5 px, fitted ~0.10 r, it helped: +2.5 -> +1.6 %, +3.6 -> +1.4 %)
 SHADOW_MAX_BLUR = 0.125
+# The wall's occlusion term (._edge_kernel._row: the ball hides the wall before the lens blurs
+# it, so the image is B (1 - S) - k grad B . grad S to first order in the wall's gradient) only
+# for a ball of at least OCCLUSION_MIN_RADIUS px (the fits' current radius). Measured over
+# three seeds of benchmarks/tracking_accuracy.py's scenes (blur 0.7 and 1.5 px, 2026-11-28):
+# at 10-15 px on a textured wall the radius' mean error under a 1.5 px blur -0.78 -> +0.15 %
+# (10 px) and within 0.5 % 16 of 36 -> 20; a dark 10 px ball, noise-free, -0.8..-1.4 % ->
+# -0.4..+0.3 %. At 5 px, where it only moves the blur and exposure that the small-ball fit
+# holds, the radius under a 1.5 px blur got worse (within 2 %: 11 of 27 -> 9; dark balls 9 of
+# 9 -> 5): there the wall under the kernel is not near its first-order expansion
+OCCLUSION_MIN_RADIUS = 8.0
 
 
 # Systematic error of the edge model's radius, px, added in quadrature to the scatter across
@@ -152,7 +181,7 @@ SMALL_FIT_BLUR = 0.4
 # terms above: docs/tracking.md §3). So COMPRESSION_PX (px) in quadrature with either
 # method's systematic error, ramped linearly from a quality of COMPRESSION_FROM (none) to
 # COMPRESSION_FULL (full): those scenes |z| <= 2.44 (RMS 0.77; per quality and radius up to 1.3;
-# generous at 15 px). OpenCV's MJPEG writer codes at ~80-90: untouched.
+# generous at 15 px); 2.67 (RMS 0.80) since the wall's occlusion term (2026-11-28). OpenCV's MJPEG writer codes at ~80-90: untouched.
 COMPRESSION_PX = 0.3
 COMPRESSION_FROM, COMPRESSION_FULL = 80.0, 60.0
 
@@ -240,6 +269,8 @@ class _Pixels(NamedTuple):
     v: np.ndarray          # pixel row
     grey: np.ndarray       # grey level
     bg: np.ndarray         # background model, scaled to the frame
+    gbu: np.ndarray        # its gradient (grey levels per px: the wall's occlusion term)
+    gbv: np.ndarray
     cx: np.ndarray         # the ball's centre in the pixel's frame
     cy: np.ndarray
     dir_u: np.ndarray      # direction of motion in the pixel's frame
@@ -298,8 +329,8 @@ def _shadow_numpy(uu, s, r, ct, st, az: float, el: float, n: int) -> np.ndarray:
 
 def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
     """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure, az, el)``, and the
-    step: the NumPy reference of the compiled :func:`._edge_kernel.varpro` (the tests compare
-    them)."""
+    model's fixed part, ``bg (1 - step)`` and the wall's occlusion term: the NumPy reference
+    of the compiled :func:`._edge_kernel.varpro` (the tests compare them)."""
     from scipy.special import ndtr
 
     r, sigma, exposure, az, el = q
@@ -341,7 +372,8 @@ def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
     rows = np.arange(rho.size)
     for j, a in enumerate((out, out * ct, out * st)):
         local[rows, 3 * px.frame + j] = a
-    return np.hstack([shared, local]), step
+    occ = (sigma * sigma + 1.0 / 12.0) * (px.gbu * ct + px.gbv * st) * dens / s
+    return np.hstack([shared, local]), px.bg * (1.0 - step) + occ
 
 
 def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
@@ -372,16 +404,18 @@ def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
     r, sigma, exposure, az, el = (float(x) for x in q)
     res, jac, ok = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
                           px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey,
-                          px.bg, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER,
+                          px.bg, px.gbu, px.gbv, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER,
                           want_jac)
     if not ok:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
     return res, jac
 
 
-def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels | None:
+def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: bool
+            ) -> _Pixels | None:
     """Pixels of one frame with ``r0 - inner <= rho <= r0 + outer`` from ``c``, saturated ones
-    and their neighbours left out; None if they leave the frame."""
+    and their neighbours left out, with the background's gradient where ``occlusion`` (else
+    zero: no occlusion term); None if they leave the frame."""
     h, w = img.shape
     reach = r0 + outer
     u0, v0 = int(math.floor(c[0] - reach)), int(math.floor(c[1] - reach))
@@ -406,10 +440,21 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float) -> _Pixels |
     n = idx.size
     uu, vv, sub = uu.ravel()[idx], vv.ravel()[idx], sub.ravel()[idx]
     bgw = bg[v0:v1, u0:u1].ravel()[idx].astype(np.float64)
+    # the background's gradient (central differences; one-sided at the frame's border), for
+    # the wall's occlusion term
+    if occlusion:
+        pu0, pv0 = max(u0 - 1, 0), max(v0 - 1, 0)
+        win = bg[pv0:min(v1 + 1, h), pu0:min(u1 + 1, w)].astype(np.float64)
+        g_v, g_u = np.gradient(win)
+        inner = (slice(v0 - pv0, v1 - pv0), slice(u0 - pu0, u1 - pu0))
+        gbu, gbv = g_u[inner].ravel()[idx], g_v[inner].ravel()[idx]
+    else:
+        gbu = gbv = np.zeros(idx.size)
     speed = math.hypot(*vel)
     du, dv = (vel[0] / speed, vel[1] / speed) if speed > 0 else (1.0, 0.0)
     full = functools.partial(np.full, n)
-    return _Pixels(uu, vv, sub, bgw, full(c[0]), full(c[1]), full(du), full(dv), full(speed),
+    return _Pixels(uu, vv, sub, bgw, gbu, gbv, full(c[0]), full(c[1]), full(du), full(dv),
+                   full(speed),
                    np.zeros(n, np.intp), 1, np.ones(n))
 
 
@@ -432,7 +477,8 @@ def _rim_pixels(img, bg, q: np.ndarray, velocity) -> _Pixels | None:
     """The pixels the fit at ``q = (cx, cy, r, sigma, exposure, ...)`` reads: from 2.5 blurs
     (or ``INNER r``) inside the rim to 2 px + 3 blurs outside (:func:`_pixels`)."""
     b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * math.hypot(*velocity)) ** 2 / 12)
-    return _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b)
+    return _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b,
+                   q[2] >= OCCLUSION_MIN_RADIUS)
 
 
 def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.ndarray
@@ -444,8 +490,8 @@ def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.
     zt, gt = _sqrt_table()
     q, res, status = fit_frame(q, free, lo[free], hi[free], 0.05, XTOL, FTOL, MAX_NFEV, px.u,
                                px.v, px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames,
-                               px.weight, px.grey, px.bg, float(zt[0]), float(zt[1] - zt[0]), gt,
-                               _nodes(), RIM_ORDER)
+                               px.weight, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]),
+                               float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER)
     if status < 0:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
     return q, res
@@ -529,6 +575,7 @@ def _every_other(px: _Pixels) -> _Pixels:
         return np.ascontiguousarray(a[::2])
 
     return px._replace(u=half(px.u), v=half(px.v), grey=half(px.grey), bg=half(px.bg),
+                       gbu=half(px.gbu), gbv=half(px.gbv),
                        cx=half(px.cx), cy=half(px.cy), dir_u=half(px.dir_u),
                        dir_v=half(px.dir_v), speed=half(px.speed), frame=half(px.frame),
                        weight=half(px.weight))
@@ -579,7 +626,8 @@ def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
     """The best starting ``(cx, cy, r, sigma, exposure, az, el)`` on a grid of radius and
     blur (centre held, no shadow: the edge model has local minima where a blur trades
     against the shading near the rim)."""
-    px = _pixels(img, bg, centre, velocity, 1.25 * r0, 1.25 * r0, 7.0)
+    px = _pixels(img, bg, centre, velocity, 1.25 * r0, 1.25 * r0, 7.0,
+                 r0 >= OCCLUSION_MIN_RADIUS)
     if px is None or px.u.size < 40:
         return None
     best, q_best = math.inf, None
@@ -629,13 +677,18 @@ def _shared_light(args, fits: list[EdgeFit]) -> tuple[float, float]:
 
 
 def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
-               centres: np.ndarray, velocities: np.ndarray, r0: float) -> RadiusFit | None:
+               centres: np.ndarray, velocities: np.ndarray, r0: float,
+               more: Callable[[], tuple] | None = None) -> RadiusFit | None:
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
     ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
     frame with the blur, exposure and light held at those fits' (medians; the light: see
-    below); the median radius and its standard error. None if fewer than 3 frames could be
-    fitted."""
+    below); the median radius and its standard error. Where those first fits find a blur of
+    at least ``BLURRED`` of a radius of at least ``MORE_FRAMES_MIN_RADIUS``, ``more()`` gives
+    more frames (the same four sequences;
+    ``RadiusFit.frames`` then counts them after the frames given), up to
+    ``FIRST_FRAMES_BLURRED`` in all are fitted alone and every frame with the blur held. None
+    if fewer than 3 frames could be fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
     # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
     # frames, spread: they only set the shared blur, exposure, light and the starting radius
@@ -643,6 +696,16 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
+    r_first = float(np.median([f.r for f in ok]))
+    if (more is not None and r_first >= MORE_FRAMES_MIN_RADIUS
+            and np.median([f.sigma for f in ok]) >= BLURRED * r_first):
+        # blurred for its size: the blur the fits hold sets the radius; more frames for it
+        extra = list(zip(*more(), strict=True))
+        n = len(args)
+        args += extra
+        for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
+            first[int(i)] = fit_edge(*args[int(i)], r0)
+        ok = [f for f in first.values() if f is not None]
     # one lens, one exposure, one lamp: a shadow if most of the frames found one, the light
     # then the one of their directions that fits their frames best together, and those frames
     # fitted again under it; the blur, exposure and starting radius from the frames that agree

@@ -113,7 +113,7 @@ def _shadow(uu, s, r, ct, st, az_c, az_s, el, nodes, cp):
 
 @njit(cache=True)
 def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz, table,
-         nodes, rim_order, want, row, part, chain, ang, cp):
+         nodes, rim_order, want, row, part, chain, ang, cp, gbu, gbv, docc):
     """One pixel's design row (unweighted: the shared columns, then the pixel's frame's three
     local ones) at offset ``(du, dv)`` from the centre, into ``row`` (the arithmetic of
     ``_edge._design_numpy``); returns the step. With ``want``, also what :func:`_drow` needs
@@ -123,7 +123,18 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz
     blurred step's and ramp's closed-form derivatives: ``d ramp/duu = step``, ``d ramp/ds =
     dens``, ``d square/duu = 2 ramp``, ``d square/ds = 2 s step``), ``chain[k] = (duu, ds,
     dr, dt)`` with respect to parameter ``k`` of ``(cx, cy, r, sigma, exposure)`` and
-    ``ang[m] = (cos m t, sin m t)``."""
+    ``ang[m] = (cos m t, sin m t)``.
+
+    Also returns the wall's occlusion term ``occ`` (grey levels; ``gbu, gbv`` the background's
+    gradient at the pixel), and with ``want`` its derivatives ``docc[k]``. The ball hides the
+    wall before the lens blurs it: the image is ``K * (W (1 - D))``, not the model's ``B (1 -
+    S)`` (``B = K * W`` the background, ``S = K * D`` the blurred step). For a kernel ``K`` of
+    covariance ``k I``, ``K * (W D) = W S + k grad W . grad S`` to first order in the wall's
+    gradient (``(y - x) K(x - y) = k grad_x K(x - y)`` for a Gaussian), so the image is
+    ``B (1 - S) - k grad B . grad S``: ``occ = k (dB/drho) dens / s``, ``k = sigma^2 + 1/12``
+    (the lens and the pixel; the exposure smears the ball, not the wall). A textured wall
+    without it: a dark 10 px ball blurred by 1.5 px, noise-free, -0.8 to -1.4 % in the radius
+    (docs/tracking.md §1)."""
     rho = math.hypot(du, dv)
     rr = max(rho, 1e-9)
     ct = du / rr
@@ -141,6 +152,9 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz
     dens = math.exp(-0.5 * z * z) * _INV_SQRT_2PI
     ramp = uu * step + s * dens
     square = (uu * uu + s * s) * step + uu * s * dens
+    kap = sigma * sigma + 1.0 / 12.0
+    g_rho = gbu * ct + gbv * st
+    occ = kap * g_rho * dens / s
     nt = table.size
     g_z = 0.0  # d root / dz at s held, of the tabulated part
     if z > z0 + dz * (nt - 1):
@@ -200,7 +214,7 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz
     row[col + 1] = out * ct
     row[col + 2] = out * st
     if not want:
-        return step
+        return step, occ
     ang[1, 0], ang[1, 1], ang[2, 0], ang[2, 1] = ct, st, c2, s2
     for m in range(3, rim_order + 1):
         ang[m, 0] = ang[m - 1, 0] * ct - ang[m - 1, 1] * st
@@ -253,7 +267,14 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz
         chain[k, 1] = d_vr / (2.0 * s)
         chain[k, 2] = e_r
         chain[k, 3] = d_t
-    return step
+        # the occlusion term: its density's derivatives in (uu, s), the gradient's turn with
+        # t, the kernel's variance with sigma
+        d_dens = dens / (s * s) * (-z * chain[k, 0] + (z * z - 1.0) * chain[k, 1])
+        docc[k] = kap * (g_rho * d_dens + (gbv * ct - gbu * st) * d_t * dens / s)
+        if k == 3:
+            docc[k] += 2.0 * sigma * g_rho * dens / s
+    docc[5] = docc[6] = 0.0
+    return step, occ
 
 
 @njit(cache=True)
@@ -336,12 +357,13 @@ def _cho_solve(low, b):
 
 @njit(cache=True)
 def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v, speed, frame,
-           n_frames, weight, grey, bg, z0, dz, table, nodes, rim_order, want_jac):
+           n_frames, weight, grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order, want_jac):
     """The edge model's weighted residual at ``(cx, cy, r, sigma, exposure, az, el)`` (the
     light's direction; elevation pi/2 or more: no shadow columns), the linear
     coefficients solved (variable projection), and its Jacobian with respect to the
     parameters flagged in ``free`` (``(n_pix, n_free)``; empty unless ``want_jac``), in one
-    call. Each pixel's centre is ``(cu + cx, cv + cy)``: ``cu, cv`` the frames' offsets (zero
+    call. ``gbu, gbv``: the background's gradient (grey levels per px; the wall's occlusion
+    term of :func:`_row`). Each pixel's centre is ``(cu + cx, cv + cy)``: ``cu, cv`` the frames' offsets (zero
     for one frame), ``cx, cy`` a shift shared by all. The coefficients are the normal
     equations' with a small ridge (the columns are O(1) functions of the pixels: a
     near-degenerate column gets a coefficient ~0). The Jacobian is the exact derivative of
@@ -361,19 +383,20 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     chain = np.empty((7, 4))
     ang = np.empty((max(rim_order, 2) + 1, 2))
     cp = np.empty((2, 7))
+    docc = np.empty(7)
     az_c = math.cos(az)
     az_s = math.sin(az)
     for i in range(n):
-        step = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r,
-                    sigma, exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order, False,
-                    row, part, chain, ang, cp)
+        step, occ = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i],
+                         r, sigma, exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order,
+                         False, row, part, chain, ang, cp, gbu[i], gbv[i], docc)
         w = weight[i]
         for c in range(n_shared):
             a[i, c] = row[c] * w
         j = n_shared + 3 * frame[i]
         for c in range(3):
             a[i, j + c] = row[n_shared + c] * w
-        y[i] = (grey[i] - bg[i] * (1.0 - step)) * w
+        y[i] = (grey[i] - bg[i] * (1.0 - step) - occ) * w
     # normal equations (lower triangle), with the ridge of the NumPy path
     low = np.zeros((m, m))
     aty = np.zeros(m)
@@ -411,7 +434,7 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     for i in range(n):
         _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r, sigma,
              exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order, True, row, part, chain,
-             ang, cp)
+             ang, cp, gbu[i], gbv[i], docc)
         w = weight[i]
         wr = w * res[i]
         j = n_shared + 3 * frame[i]
@@ -420,7 +443,7 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
             if not free[k]:
                 continue
             _drow(part, chain, ang, cp, k, rim_order, lit, drow)
-            t = bg[i] * drow[0]  # dy: y = (grey - bg (1 - step)) w
+            t = bg[i] * drow[0] - docc[k]  # dy: y = (grey - bg (1 - step) - occ) w
             for c in range(n_shared):
                 t -= drow[c] * beta[c]
                 h[c, col] += drow[c] * wr
@@ -452,15 +475,15 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
 
 
 @njit(cache=True)
-def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0,
-                    dz, table, nodes, rim_order):
+def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, gbu,
+                    gbv, z0, dz, table, nodes, rim_order):
     """:func:`varpro` at ``q = (cx, cy, r, sigma, exposure, az, el)`` of one frame's pixels,
     with the Jacobian; ``ok`` False where the normal equations are singular or a residual is not
     finite."""
     zero = np.zeros(u.size)
     res, jac, ok = varpro(q[0], q[1], q[2], q[3], q[4], q[5], q[6], free, u, v, zero, zero,
-                          dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, z0, dz, table,
-                          nodes, rim_order, True)
+                          dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, gbu, gbv, z0,
+                          dz, table, nodes, rim_order, True)
     if ok:
         for i in range(res.size):
             if not math.isfinite(res[i]):
@@ -470,7 +493,7 @@ def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
 
 @njit(cache=True)
 def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_v, speed,
-              frame, n_frames, weight, grey, bg, z0, dz, table, nodes, rim_order):
+              frame, n_frames, weight, grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order):
     """Least squares of the edge model of one frame over the parameters of ``q0 = (cx, cy, r,
     sigma, exposure, az, el)`` flagged in ``free``, within ``lo <= x <= hi`` (the free ones):
     Levenberg-Marquardt on the analytic Jacobian of :func:`varpro`, in the variables
@@ -500,7 +523,7 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
             idx[j] = k
             j += 1
     res, jac, ok = _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
-                                   grey, bg, z0, dz, table, nodes, rim_order)
+                                   grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order)
     if not ok:
         return q, res, -1
     nfev = 1
@@ -579,8 +602,8 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
             predicted -= grad[a] * step[a] + 0.5 * step[a] * t
         small = math.sqrt(snorm) < xtol * (xtol + math.sqrt(xnorm))
         res_t, jac_t, ok = _evaluate_frame(trial, free, u, v, dir_u, dir_v, speed, frame,
-                                           n_frames, weight, grey, bg, z0, dz, table,
-                                           nodes, rim_order)
+                                           n_frames, weight, grey, bg, gbu, gbv, z0, dz,
+                                           table, nodes, rim_order)
         nfev += 1
         actual = cost - 0.5 * np.dot(res_t, res_t) if ok else -math.inf
         if predicted > 0.0 and actual > 1e-4 * predicted:

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ._edge import CENTRE_FIT_BLUR, MAX_FRAMES, RadiusFit, fit_radius, spread
+from ._edge import CENTRE_FIT_BLUR, MAX_FRAMES, MAX_FRAMES_BLURRED, RadiusFit, fit_radius, spread
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
 
 FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
@@ -143,12 +143,19 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     if len(cand) < 3:
         return None, (0.0, 0.0)
     pick = cand[spread(len(cand), MAX_FRAMES)]
-    vel = (centre[pick + 1] - centre[pick - 1]) / 2.0
-    bg = clean(centre[pick])
-    fit = fit_radius([frames[k] for k in pick], [gains[k] * bg for k in pick],
-                     centre[pick], vel, r0)
+    # more frames, if the edge model asks for them (a ball blurred for its size): up to
+    # MAX_FRAMES_BLURRED in all, spread, those not picked already
+    extra = np.setdiff1d(cand[spread(len(cand), MAX_FRAMES_BLURRED)], pick)
+
+    def inputs(idx: np.ndarray) -> tuple:
+        bg = clean(centre[idx])
+        return ([frames[k] for k in idx], [gains[k] * bg for k in idx], centre[idx],
+                (centre[idx + 1] - centre[idx - 1]) / 2.0)
+
+    fit = fit_radius(*inputs(pick), r0, more=lambda: inputs(extra))
     if fit is None:
         return None, (0.0, 0.0)
+    pick = np.concatenate([pick, extra])
     fit = fit._replace(frames=tuple(int(pick[i]) for i in fit.frames))
     diff = fit.centres - centre[list(fit.frames)]
     shift = np.median(diff, axis=0)
