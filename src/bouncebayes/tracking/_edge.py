@@ -70,13 +70,16 @@ FIRST_FRAMES = 5   # of which fitted with blur and exposure free
 # benchmarks/tracking_accuracy.py's scenes at radius 10-15 px (blur 0.7 and 1.5 px; 81 scenes;
 # 2026-11-28) 42 within 0.5 % with 9 / 5 frames, 46 with 17 / 9 and 52 with 25 / 13 (RMS
 # error at 15 px and blur 1.5 px 1.21 -> 0.57 %), at 2.5x the edge model's CPU time there.
-# Not for a ball whose fits find a radius under MORE_FRAMES_MIN_RADIUS px (as
-# ._refine.SMALL_RADIUS: there the small-ball fit gives the radius, and the paper's camera's
-# speed target, 5000 frames/s at 224 x 64 px, has no room for them)
+# A small ball's blur, held by the small-ball fit (._refine), too: radius 5 px, blur 0.7 px
+# (27 scenes) within 2 % 20 -> 26, RMS 1.3 -> 0.9 %; the paper's camera (32 clips,
+# benchmarks/paper_camera.py) centres within 0.15 px 31 -> 32, the scale's RMS error 2.0 ->
+# 1.6 %; its 224 x 64 benchmark video 85 -> 105 CPU-us a frame where it applies. Not above a
+# blur of MORE_FRAMES_MAX_BLUR of the radius: at 5 px under a 1.5 px blur (fitted 0.29-0.35 of
+# it) the radius moved by up to 18 % either way, within 2 % 14 -> 11 of 27
 BLURRED = 0.05
+MORE_FRAMES_MAX_BLUR = 0.2
 MAX_FRAMES_BLURRED = 25
 FIRST_FRAMES_BLURRED = 13
-MORE_FRAMES_MIN_RADIUS = 8.0
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
 XTOL = FTOL = 1e-4  # the fits' tolerances (as SciPy's least_squares') ...
 MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic change, 2-5x
@@ -161,7 +164,8 @@ EDGE_MODEL, SMALL_BALL_FIT = "edge model", "small-ball fit"  # RadiusFit.method
 # clips of benchmarks/paper_camera.py and the 17 scenarios of benchmarks/tracking_accuracy.py
 # where it runs (radius 5 px) its radius came out -6.8 to +4.0 % (RMS 1.7 %, 0.085 px; the
 # edge model's -4.6 to +6.6 %, RMS 3.6 %), the largest a frontally lit MJPEG clip and one whose
-# fitted blur is 0.48 px against 0.6; 0.13 px (2.6 % at 5 px) gives them |z| <= 2.6. Plus, in
+# fitted blur is 0.48 px against 0.6; 0.13 px (2.6 % at 5 px) gives them |z| <= 2.6 (with the
+# blur of 13 free fits, 2026-11-28: -6.4 to +2.6 %, RMS 1.4 %, |z| <= 2.32). Plus, in
 # quadrature, the edge model's blur term BLUR_PX3 * sigma^3: under a 1.5 px blur (fitted
 # 1.46-1.75 px) the radius came out -3.9 to +1.1 %, a glossy ball's -8 to -15 % (z <= 1.6)
 SMALL_FIT_SYSTEMATIC_PX = 0.13
@@ -181,7 +185,7 @@ SMALL_FIT_BLUR = 0.4
 # terms above: docs/tracking.md §3). So COMPRESSION_PX (px) in quadrature with either
 # method's systematic error, ramped linearly from a quality of COMPRESSION_FROM (none) to
 # COMPRESSION_FULL (full): those scenes |z| <= 2.44 (RMS 0.77; per quality and radius up to 1.3;
-# generous at 15 px); 2.67 (RMS 0.80) since the wall's occlusion term (2026-11-28). OpenCV's MJPEG writer codes at ~80-90: untouched.
+# generous at 15 px); 2.67 (RMS 0.76) since the wall's occlusion term (2026-11-28). OpenCV's MJPEG writer codes at ~80-90: untouched.
 COMPRESSION_PX = 0.3
 COMPRESSION_FROM, COMPRESSION_FULL = 80.0, 60.0
 
@@ -446,8 +450,8 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: b
         pu0, pv0 = max(u0 - 1, 0), max(v0 - 1, 0)
         win = bg[pv0:min(v1 + 1, h), pu0:min(u1 + 1, w)].astype(np.float64)
         g_v, g_u = np.gradient(win)
-        inner = (slice(v0 - pv0, v1 - pv0), slice(u0 - pu0, u1 - pu0))
-        gbu, gbv = g_u[inner].ravel()[idx], g_v[inner].ravel()[idx]
+        box = (slice(v0 - pv0, v1 - pv0), slice(u0 - pu0, u1 - pu0))
+        gbu, gbv = g_u[box].ravel()[idx], g_v[box].ravel()[idx]
     else:
         gbu = gbv = np.zeros(idx.size)
     speed = math.hypot(*vel)
@@ -676,16 +680,19 @@ def _shared_light(args, fits: list[EdgeFit]) -> tuple[float, float]:
     return light
 
 
+# frames, backgrounds, centres (px) and velocities (px per frame) of the frames fitted
+_FrameInputs = tuple[Sequence[np.ndarray], Sequence[np.ndarray], np.ndarray, np.ndarray]
+
+
 def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
                centres: np.ndarray, velocities: np.ndarray, r0: float,
-               more: Callable[[], tuple] | None = None) -> RadiusFit | None:
+               more: Callable[[], _FrameInputs] | None = None) -> RadiusFit | None:
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
     ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
     frame with the blur, exposure and light held at those fits' (medians; the light: see
     below); the median radius and its standard error. Where those first fits find a blur of
-    at least ``BLURRED`` of a radius of at least ``MORE_FRAMES_MIN_RADIUS``, ``more()`` gives
-    more frames (the same four sequences;
+    ``BLURRED`` to ``MORE_FRAMES_MAX_BLUR`` of the radius, ``more()`` gives more frames (the same four sequences;
     ``RadiusFit.frames`` then counts them after the frames given), up to
     ``FIRST_FRAMES_BLURRED`` in all are fitted alone and every frame with the blur held. None
     if fewer than 3 frames could be fitted."""
@@ -696,9 +703,8 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
-    r_first = float(np.median([f.r for f in ok]))
-    if (more is not None and r_first >= MORE_FRAMES_MIN_RADIUS
-            and np.median([f.sigma for f in ok]) >= BLURRED * r_first):
+    blur = float(np.median([f.sigma for f in ok]) / np.median([f.r for f in ok]))
+    if more is not None and BLURRED <= blur <= MORE_FRAMES_MAX_BLUR:
         # blurred for its size: the blur the fits hold sets the radius; more frames for it
         extra = list(zip(*more(), strict=True))
         n = len(args)

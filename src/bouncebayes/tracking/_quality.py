@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from ._edge import CENTRE_FIT_BLUR, MAX_FRAMES, MAX_FRAMES_BLURRED, RadiusFit, fit_radius, spread
+from ._edge import (CENTRE_FIT_BLUR, MAX_FRAMES, MAX_FRAMES_BLURRED, RadiusFit, _FrameInputs,
+                    fit_radius, spread)
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
 
 FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
@@ -147,7 +148,7 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     # MAX_FRAMES_BLURRED in all, spread, those not picked already
     extra = np.setdiff1d(cand[spread(len(cand), MAX_FRAMES_BLURRED)], pick)
 
-    def inputs(idx: np.ndarray) -> tuple:
+    def inputs(idx: np.ndarray) -> _FrameInputs:
         bg = clean(centre[idx])
         return ([frames[k] for k in idx], [gains[k] * bg for k in idx], centre[idx],
                 (centre[idx + 1] - centre[idx - 1]) / 2.0)
