@@ -63,7 +63,7 @@ bench: $(STAMP)
 	@for b in benchmarks/[a-z]*.py; do \
 		case $$b in benchmarks/speed_table.py|benchmarks/sbc.py|benchmarks/population_sbc.py|\
 			benchmarks/discrepancy.py|benchmarks/tracking_accuracy.py|\
-			benchmarks/tracking_campaign.py) continue;; esac; \
+			benchmarks/tracking_campaign.py|benchmarks/tracking_codecs.py) continue;; esac; \
 		echo "== $$b"; OPENBLAS_NUM_THREADS=1 $(BIN)/python $$b || exit 1; \
 	done
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python benchmarks/forward.py --compliant

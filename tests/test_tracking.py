@@ -531,7 +531,7 @@ def test_a_ball_lit_from_the_camera_gets_no_shadow():
     # lit from the camera there is no terminator on the visible sphere: the model keeps none
     # (elevation 90 degrees; two of the five first fits found one in the wall's texture) and
     # the radius is the model's without the shadow: +0.56 % (the truth: the renderer's radius;
-    # stated SD 1.1 %; +0.13 % on the 9 frames of before the blurred ball's 25, -0.11 % before
+    # stated SD 1.1 %; +0.13 % with 9 frames, before a blurred ball got 25, and -0.11 % before
     # the wall's occlusion term; with the shadow forced on every frame of this scene on a
     # plain wall: +2.9 %)
     shot = pbr_shot(10.0, 0.7, 0.0, light=(0.0, 0.0, 1.0))
@@ -957,6 +957,54 @@ def test_strongly_compressed_frames_get_a_warning(tmp_path, capsys):
             ball = record["ball"]
             assert "allows 0.3 px of the ball's radius" in said
             assert record["calibration"]["relative_sd"] * ball["radius_px"] >= 0.3
+
+
+def test_a_video_files_bits_per_pixel_are_read_and_a_low_rate_gets_a_warning(tmp_path):
+    import dataclasses
+
+    from bouncebayes.tracking import compression_warning, read_frames
+
+    # expected: the file's size in bits over its frames' pixels (closed form); none for a
+    # folder of frames. An MPEG-4 file of fewer than 0.1 bits per pixel gets the warning, with
+    # the compression's share of the stated uncertainty (CODEC_PX at 0.05: 0.4 px); one of 0.5
+    # bits per pixel, or JPEG-coded frames of a known quality, none for their rate
+    frames = np.random.default_rng(3).integers(0, 256, (6, 48, 64), dtype=np.uint8)
+    mp4 = write_video(frames, tmp_path / "v.mp4", 1000.0, "mp4v")
+    source = read_frames(mp4)
+    assert source.bits_per_pixel == pytest.approx(8.0 * mp4.stat().st_size / frames.size)
+    assert read_frames(write_png_sequence(list(frames), tmp_path / "png"),
+                       fps=1000.0).bits_per_pixel is None
+    low = dataclasses.replace(source, bits_per_pixel=0.05)
+    said = compression_warning(low)
+    assert said is not None and "0.05 bits per pixel" in said and "0.4 px" in said
+    assert "--reference" in said
+    assert compression_warning(dataclasses.replace(source, bits_per_pixel=0.5)) is None
+    assert compression_warning(dataclasses.replace(low, jpeg_quality=90.0)) is None
+
+
+def test_the_codec_term_is_linear_in_the_log_of_the_bits_per_pixel():
+    """Closed form of CODEC_PX at CODEC_BITS: linear in log(bits) between the knots, flat
+    beyond (none from 0.3 bits per pixel up), none where the rate is not known; the JPEG
+    quality, where read, decides instead."""
+    from bouncebayes.tracking._edge import (
+        CODEC_BITS,
+        CODEC_PX,
+        compression_px,
+        edge_model_systematic_px,
+        radius_relative_sd,
+    )
+
+    for bits, px in zip(CODEC_BITS, CODEC_PX, strict=True):
+        assert compression_px(None, bits) == pytest.approx(px)
+    assert compression_px(None, 1.0) == 0.0 and compression_px(None, 8.0) == 0.0
+    assert compression_px(None, 0.01) == pytest.approx(CODEC_PX[0])
+    assert compression_px(None, math.sqrt(0.1 * 0.3)) == pytest.approx(0.15)
+    assert compression_px(None, None) == 0.0 and compression_px(None, 0.0) == 0.0
+    assert compression_px(90.0, 0.01) == 0.0
+    # in quadrature with the scatter and the edge model's systematic error
+    sd = radius_relative_sd(10.0, 0.05, 0.7, bits_per_pixel=0.05)
+    expected = math.hypot(0.05, edge_model_systematic_px(10.0, 0.7), 0.4) / 10.0
+    assert sd == pytest.approx(expected)
 
 
 def test_the_compression_term_is_a_ramp_in_jpeg_quality():

@@ -185,9 +185,23 @@ SMALL_FIT_BLUR = 0.4
 # terms above: docs/tracking.md §3). So COMPRESSION_PX (px) in quadrature with either
 # method's systematic error, ramped linearly from a quality of COMPRESSION_FROM (none) to
 # COMPRESSION_FULL (full): those scenes |z| <= 2.44 (RMS 0.77; per quality and radius up to 1.3;
-# generous at 15 px); 2.67 (RMS 0.76) since the wall's occlusion term (2026-11-28). OpenCV's MJPEG writer codes at ~80-90: untouched.
+# generous at 15 px); 2.67 (RMS 0.76) since the wall's occlusion term (2026-11-28). OpenCV's
+# MJPEG writer codes at ~80-90: untouched.
 COMPRESSION_PX = 0.3
 COMPRESSION_FROM, COMPRESSION_FULL = 80.0, 60.0
+# Other lossy codecs (MPEG-4 part 2, H.264, ...), whose quantiser is not read: the file's size
+# per pixel of its frames stands for it. Rendered balls (tests/render_pbr.py: radius 5/10/15 px,
+# blur 0 and 0.7 px, exposure 40 %, three lightings, seeds 8 and 3; FFmpeg's mpeg4 at qscale
+# 2-31 and libx264 at CRF 18-42, decoded by OpenCV; benchmarks/tracking_codecs.py): at 0.3
+# bits per pixel or more every radius within 0.15 px; below it off by up to 0.55 px (0.1-0.3),
+# 0.76 (0.05-0.1), 1.1 (0.04-0.05) and 3.7 px (below 0.04; H.264 at CRF 18, its
+# "visually lossless", 0.04-0.11 bits per pixel here: 10 px balls up to 5.9 % off, |z| 5.2
+# without this). So CODEC_PX (px) at CODEC_BITS bits per pixel, linear in log(bits) between
+# and flat beyond, in quadrature like the JPEG term: those 324 scenes |z| <= 2.58 (RMS 0.59;
+# 4.08 with 1.5 px at the lowest rates, where a 5 px ball came out up to 68 % off), a third
+# seed not used to choose it |z| <= 2.62 (RMS 0.70)
+CODEC_BITS = (0.03, 0.05, 0.1, 0.3)
+CODEC_PX = (2.5, 0.4, 0.3, 0.0)
 
 
 def spread(n: int, k: int) -> np.ndarray:
@@ -215,13 +229,16 @@ def psf_shape_px(radius_px: float, blur_px: float | None) -> float:
     return PSF_SHAPE_REL * radius_px * _ramp(blur / radius_px, PSF_SHAPE_FROM, PSF_SHAPE_TO)
 
 
-def compression_px(jpeg_quality: float | None) -> float:
-    """The radius error (px) that JPEG compression of the frames allows: ``COMPRESSION_PX``
-    ramped from a quality of ``COMPRESSION_FROM`` (zero) to ``COMPRESSION_FULL`` (full); zero
-    where the quality is not known (uncompressed frames, MPEG-4, H.264)."""
-    if jpeg_quality is None or not math.isfinite(jpeg_quality):
+def compression_px(jpeg_quality: float | None, bits_per_pixel: float | None = None) -> float:
+    """The radius error (px) that compression of the frames allows: for JPEG-coded frames of
+    quality ``jpeg_quality``, ``COMPRESSION_PX`` ramped from a quality of ``COMPRESSION_FROM``
+    (zero) to ``COMPRESSION_FULL`` (full); for other video, by the file's ``bits_per_pixel``
+    (``CODEC_PX`` at ``CODEC_BITS``, linear in its logarithm); zero where neither is known."""
+    if jpeg_quality is not None and math.isfinite(jpeg_quality):
+        return COMPRESSION_PX * _ramp(jpeg_quality, COMPRESSION_FROM, COMPRESSION_FULL)
+    if bits_per_pixel is None or not bits_per_pixel > 0.0 or not math.isfinite(bits_per_pixel):
         return 0.0
-    return COMPRESSION_PX * _ramp(jpeg_quality, COMPRESSION_FROM, COMPRESSION_FULL)
+    return float(np.interp(math.log(bits_per_pixel), np.log(CODEC_BITS), CODEC_PX))
 
 
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
@@ -234,16 +251,19 @@ def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
 
 
 def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None,
-                       method: str = EDGE_MODEL, jpeg_quality: float | None = None) -> float:
+                       method: str = EDGE_MODEL, jpeg_quality: float | None = None,
+                       bits_per_pixel: float | None = None) -> float:
     """The relative standard deviation of the ball's radius: its scatter across frames
     ``radius_se_px`` and the systematic error in quadrature: the edge model's
     (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` and the blur term
     ``BLUR_PX3 * blur_px^3`` in quadrature where ``method`` is ``SMALL_BALL_FIT``; and the
-    frames' JPEG compression (:func:`compression_px`)."""
+    frames' compression (:func:`compression_px`: their JPEG quality, or the video's bits per
+    pixel)."""
     blur = 0.0 if blur_px is None else blur_px
     systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3) \
         if method == SMALL_BALL_FIT else edge_model_systematic_px(radius_px, blur_px)
-    return math.hypot(radius_se_px, systematic, compression_px(jpeg_quality)) / radius_px
+    compression = compression_px(jpeg_quality, bits_per_pixel)
+    return math.hypot(radius_se_px, systematic, compression) / radius_px
 
 
 class RadiusFit(NamedTuple):
@@ -408,8 +428,8 @@ def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
     r, sigma, exposure, az, el = (float(x) for x in q)
     res, jac, ok = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
                           px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey,
-                          px.bg, px.gbu, px.gbv, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER,
-                          want_jac)
+                          px.bg, px.gbu, px.gbv, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(),
+                          RIM_ORDER, want_jac)
     if not ok:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
     return res, jac
@@ -458,8 +478,7 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: b
     du, dv = (vel[0] / speed, vel[1] / speed) if speed > 0 else (1.0, 0.0)
     full = functools.partial(np.full, n)
     return _Pixels(uu, vv, sub, bgw, gbu, gbv, full(c[0]), full(c[1]), full(du), full(dv),
-                   full(speed),
-                   np.zeros(n, np.intp), 1, np.ones(n))
+                   full(speed), np.zeros(n, np.intp), 1, np.ones(n))
 
 
 class EdgeFit(NamedTuple):
@@ -692,8 +711,8 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
     frame with the blur, exposure and light held at those fits' (medians; the light: see
     below); the median radius and its standard error. Where those first fits find a blur of
-    ``BLURRED`` to ``MORE_FRAMES_MAX_BLUR`` of the radius, ``more()`` gives more frames (the same four sequences;
-    ``RadiusFit.frames`` then counts them after the frames given), up to
+    ``BLURRED`` to ``MORE_FRAMES_MAX_BLUR`` of the radius, ``more()`` gives more frames (the
+    same four sequences; ``RadiusFit.frames`` then counts them after the frames given), up to
     ``FIRST_FRAMES_BLURRED`` in all are fitted alone and every frame with the blur held. None
     if fewer than 3 frames could be fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))

@@ -363,9 +363,9 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     coefficients solved (variable projection), and its Jacobian with respect to the
     parameters flagged in ``free`` (``(n_pix, n_free)``; empty unless ``want_jac``), in one
     call. ``gbu, gbv``: the background's gradient (grey levels per px; the wall's occlusion
-    term of :func:`_row`). Each pixel's centre is ``(cu + cx, cv + cy)``: ``cu, cv`` the frames' offsets (zero
-    for one frame), ``cx, cy`` a shift shared by all. The coefficients are the normal
-    equations' with a small ridge (the columns are O(1) functions of the pixels: a
+    term of :func:`_row`). Each pixel's centre is ``(cu + cx, cv + cy)``: ``cu, cv`` the
+    frames' offsets (zero for one frame), ``cx, cy`` a shift shared by all. The coefficients
+    are the normal equations' with a small ridge (the columns are O(1) functions of the pixels: a
     near-degenerate column gets a coefficient ~0). The Jacobian is the exact derivative of
     ``res = y - A beta``, ``beta = M^-1 A^T y``, ``M = A^T A + ridge`` (Golub & Pereyra 1973;
     the ridge held): ``d res = g - A M^-1 (A^T g + dA^T res)``, ``g = dy - dA beta``; ``dA``

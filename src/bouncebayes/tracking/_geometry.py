@@ -48,19 +48,22 @@ class Calibration:
                            radius_se_px: float | None = None,
                            blur_px: float | None = None,
                            method: str = EDGE_MODEL,
-                           jpeg_quality: float | None = None) -> Calibration:
+                           jpeg_quality: float | None = None,
+                           bits_per_pixel: float | None = None) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
         to which the systematic error of what measured it is added in quadrature
         (:func:`radius_relative_sd`: ``method`` ``"edge model"``, with the fitted blur
         ``blur_px``, or ``"small-ball fit"``; ``Track.radius_fit.method``; and the frames'
-        JPEG quality, ``VideoSource.jpeg_quality``, where known)."""
+        JPEG quality, ``VideoSource.jpeg_quality``, or the video's bits per pixel,
+        ``VideoSource.bits_per_pixel``, where known)."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
         method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT))
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
-            rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method, jpeg_quality)
+            rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method, jpeg_quality,
+                                     bits_per_pixel)
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 

@@ -223,7 +223,8 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         calibration = Calibration.from_ball_diameter(
             diameter, track.ball_radius, track.ball_radius_se,
             fit.sigma if fit is not None else None,
-            fit.method if fit is not None else EDGE_MODEL, source.jpeg_quality)
+            fit.method if fit is not None else EDGE_MODEL, source.jpeg_quality,
+            source.bits_per_pixel)
     if surface is None:
         surface = detect_surface(track.background)
         if surface is None:
@@ -283,16 +284,29 @@ def _ball_record(tr: Track) -> dict[str, object]:
 # render_pbr.py, each frame a JPEG; docs/tracking.md §3) at quality 70 every scale had |z| <=
 # 1.9 over 54 scenes, at 50 a 5 px ball's up to 3.6 and at 40 a 10 px ball's 4.7 (+7.6 %)
 STRONG_COMPRESSION = 60.0
+# ... and, for other codecs (MPEG-4, H.264, ...), a video file of fewer bits per pixel than
+# LOW_BITS: there rendered balls came out up to 0.76 px off (0.05-0.1 bits per pixel) and more
+# below (._edge.CODEC_PX; docs/tracking.md §3)
+LOW_BITS = 0.1
 
 
 def compression_warning(source: VideoSource) -> str | None:
     """A sentence where the frames are JPEG-coded (MJPEG, JPEG files) at a quality below
-    ``STRONG_COMPRESSION`` (:func:`._video.jpeg_quality`); None otherwise (and for codecs
-    whose quality is not read: MPEG-4, H.264)."""
-    q = source.jpeg_quality
+    ``STRONG_COMPRESSION`` (:func:`._video.jpeg_quality`), or, coded otherwise (MPEG-4, H.264,
+    ...), the video file holds fewer than ``LOW_BITS`` bits per pixel; None otherwise."""
+    from ._edge import compression_px
+
+    q, bits = source.jpeg_quality, source.bits_per_pixel
+    if q is None and bits is not None and bits < LOW_BITS:
+        return (f"the video is compressed to {bits:.2g} bits per pixel (an MPEG-4 or H.264 "
+                f"codec's quantiser is not read; below {LOW_BITS:g} it smears and rings at the "
+                "ball's edge): the stated uncertainty of the --ball-diameter scale allows "
+                f"{compression_px(None, bits):.2g} px of the ball's radius for it (rendered balls "
+                "came out up to 0.8-3.7 px off below 0.1 bits per pixel), and the centres may be "
+                "off by more than stated; give --reference, and record with less compression "
+                "(a higher bit rate, or MJPEG or lossless frames) if you can")
     if q is None or q >= STRONG_COMPRESSION:
         return None
-    from ._edge import compression_px
 
     return (f"the frames are JPEG-compressed at quality ~{q:.0f} (below "
             f"{STRONG_COMPRESSION:.0f}): the codec rings at the ball's edge; the stated "
@@ -328,12 +342,12 @@ def radius_warning(track: Track) -> str | None:
         return (f"the ball's edge is blurred by {fit.sigma:.2g} px for a radius of "
                 f"{fit.radius:.3g} px: its radius depends on the blur's shape (a lens out of "
                 "focus blurs into a disk, not a Gaussian), so the --ball-diameter scale is "
-                f"uncertain by +-{100 * rel:.2g} % (its stated uncertainty); give --reference "
-                "for a better scale")
+                f"uncertain by +-{100 * rel:.2g} % on that account (in its stated uncertainty); "
+                "give --reference for a better scale")
     if rel > UNCERTAIN_RADIUS:
         return (f"the ball is {fit.radius:.3g} px in radius: too few pixels at its edge to "
                 f"tell its radius from the blur and shading better than +-{100 * rel:.2g} % "
-                "(the stated uncertainty of the --ball-diameter scale); give --reference for a "
+                "(in the stated uncertainty of the --ball-diameter scale); give --reference for a "
                 "better scale")
     return None
 
@@ -354,9 +368,10 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
         "bouncebayes_version": __version__,
         "frames": n, "width": w, "height": h,
         "fps": src.fps, "fps_source": src.fps_source,
-        # the JPEG quality of MJPEG or JPEG frames (None: not JPEG-coded, or not read), and
-        # a warning where it is low
-        "jpeg_quality": src.jpeg_quality, "compression_warning": compression_warning(src),
+        # the JPEG quality of MJPEG or JPEG frames (None: not JPEG-coded, or not read), the
+        # video file's bits per pixel (None: a folder of images), and a warning where low
+        "jpeg_quality": src.jpeg_quality, "bits_per_pixel": _optional(src.bits_per_pixel, 4),
+        "compression_warning": compression_warning(src),
         "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
                     "threshold_grey": round(tr.threshold, 3),
                     "centre_offset_px": [round(v, 4) for v in tr.centre_offset]},

@@ -11,7 +11,8 @@ A ball cut by the frame edge is flagged at ``EDGE_FACTOR`` times the median, or 
 ``EDGE_VISIBLE`` of it is in view. The misfit is compiled (:func:`._fast.quality_misfit`).
 
 :func:`fit_ball_radius` picks up to ``MAX_FRAMES`` trusted frames spread over the video, with
-the ball wholly in view, and runs the edge model of :mod:`._edge` on them.
+the ball wholly in view, and runs the edge model of :mod:`._edge` on them (on up to
+``MAX_FRAMES_BLURRED`` where it finds the ball blurred for its size).
 """
 
 from __future__ import annotations

@@ -32,6 +32,9 @@ class VideoSource:
     fps: float
     fps_source: str
     jpeg_quality: float | None = None  # of JPEG-coded frames (MJPEG, JPEG files): jpeg_quality()
+    # a video file's size in bits per pixel of its frames: how hard it is compressed where the
+    # codec's quantiser is not read (MPEG-4, H.264, ...; uncompressed grey video: 8)
+    bits_per_pixel: float | None = None
 
 
 def read_frames(path: str | os.PathLike, *, fps: float | None = None) -> VideoSource:
@@ -60,8 +63,9 @@ def read_frames(path: str | os.PathLike, *, fps: float | None = None) -> VideoSo
         raise InputFileError(path, f"frame rate unknown ({what}): give it with --fps")
     frames.setflags(write=False)
     name = path.name if path.is_dir() else path.stem
+    bits = None if path.is_dir() else 8.0 * path.stat().st_size / frames.size
     return VideoSource(path=path, name=name, frames=frames, fps=float(rate), fps_source=source,
-                       jpeg_quality=jpeg_quality(path))
+                       jpeg_quality=jpeg_quality(path), bits_per_pixel=bits)
 
 
 # The IJG (libjpeg) luminance quantisation table at quality 50, ITU-T T.81 Annex K.1 (row by
