@@ -112,7 +112,7 @@ SHADOW_MAX_BLUR = 0.125
 # at 10-15 px on a textured wall the radius' mean error under a 1.5 px blur -0.78 -> +0.15 %
 # (10 px) and within 0.5 % 16 of 36 -> 20; a dark 10 px ball, noise-free, -0.8..-1.4 % ->
 # -0.4..+0.3 %. At 5 px, where it only moves the blur and exposure that the small-ball fit
-# holds, the radius under a 1.5 px blur got worse (within 2 %: 11 of 27 -> 9; dark balls 9 of
+# holds, the radius under a 1.5 px blur got worse (within 2 %: 14 of 27 -> 9; dark balls 9 of
 # 9 -> 5): there the wall under the kernel is not near its first-order expansion
 OCCLUSION_MIN_RADIUS = 8.0
 
