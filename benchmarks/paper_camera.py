@@ -33,6 +33,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -48,6 +49,7 @@ from bouncebayes.kinematics import (  # noqa: E402
     read_trajectory,
 )
 from bouncebayes.tracking import (  # noqa: E402
+    Calibration,
     Surface,
     read_frames,
     track_video,
@@ -77,20 +79,29 @@ def rms(a: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(a * a, axis=1))))
 
 
-def clip_frames(s: Shot, codec: str, name: str, tmp: Path, cache: Path | None) -> np.ndarray:
-    if cache is not None and (cache / f"{name}.npy").exists():
-        return np.load(cache / f"{name}.npy")
-    frames = read_frames(write(render(s), tmp / f"{name}.avi", 1000.0, codec)).frames
+def clip_frames(s: Shot, codec: str, name: str, tmp: Path, cache: Path | None
+                ) -> tuple[np.ndarray, dict]:
+    """The clip's decoded frames, and its coding as ``read_frames`` found it in the file
+    (``jpeg_quality``, ``bits_per_pixel``: what sets the compression's share of the scale's
+    stated SD for a user's file), from ``cache`` where they are there."""
+    frames_file, coding_file = (None, None) if cache is None else \
+        (cache / f"{name}.npy", cache / f"{name}.coding.json")
+    if frames_file is not None and frames_file.exists() and coding_file.exists():
+        return np.load(frames_file), json.loads(coding_file.read_text())
+    source = read_frames(write(render(s), tmp / f"{name}.avi", 1000.0, codec))
+    coding = {"jpeg_quality": source.jpeg_quality, "bits_per_pixel": source.bits_per_pixel}
     if cache is not None:
         cache.mkdir(parents=True, exist_ok=True)
-        np.save(cache / f"{name}.npy", frames)
-    return frames
+        np.save(frames_file, source.frames)
+        coding_file.write_text(json.dumps(coding))
+    return source.frames, coding
 
 
-def track_and_fit(frames: np.ndarray, s: Shot, tmp: Path):
+def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path):
     """Track the frames as a video of 1000 fps (a lossless image sequence, so the same frames
-    as in memory) with the ball's diameter for the scale and the renderer's surface line, and
-    fit the kinematics: the track, and the row's scale and kinematics entries."""
+    as in memory) with the ball's diameter for the scale and the renderer's surface line, the
+    scale's stated SD that of the clip's own file (its ``coding``, which the image sequence
+    loses), and fit the kinematics: the track, and the row's scale and kinematics entries."""
     import cv2
 
     folder = tmp / "frames"
@@ -102,6 +113,12 @@ def track_and_fit(frames: np.ndarray, s: Shot, tmp: Path):
     x1, y1, x2, y2 = s.surface_points()
     video = track_video(folder, fps=1000.0, ball_diameter=s.diameter_m,
                         surface=Surface.from_points((x1, y1), (x2, y2)))
+    fit = video.track.radius_fit
+    video = dataclasses.replace(
+        video, source=dataclasses.replace(video.source, **coding),
+        calibration=Calibration.from_ball_diameter(
+            s.diameter_m, video.track.ball_radius, video.track.ball_radius_se, fit.sigma,
+            fit.method, coding["jpeg_quality"], coding["bits_per_pixel"]))
     files = write_track_files(video, tmp / "out")
     record = json.loads(files["record"].read_text(encoding="utf-8"))
     cal = video.calibration
@@ -139,8 +156,8 @@ def main(argv=None) -> dict:
                     for sigma in (0.3, 0.6):
                         s = shot(light, seed, sigma)
                         name = f"{lname}-{codec}-{seed}-{sigma}"
-                        frames = clip_frames(s, codec, name, Path(tmp), args.cache)
-                        tr, fitted, fall = track_and_fit(frames, s, Path(tmp))
+                        frames, coding = clip_frames(s, codec, name, Path(tmp), args.cache)
+                        tr, fitted, fall = track_and_fit(frames, coding, s, Path(tmp))
                         if fall is not None:
                             falls.append((lname, fall, fitted["scale_error_pct"]))
                         truth = s.true_centres()
@@ -158,7 +175,7 @@ def main(argv=None) -> dict:
                                      "rms_px": round(rms(err), 4),
                                      "offset_px": [round(float(v), 4) for v in off],
                                      "bias_px": [round(float(v), 4) for v in err.mean(axis=0)],
-                                     "radius_px": round(tr.ball_radius, 3),
+                                     "radius_px": round(tr.ball_radius, 3), **coding,
                                      **fitted})
                         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     cur = np.array([r["rms_px"] for r in rows])
