@@ -113,12 +113,9 @@ def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path):
     x1, y1, x2, y2 = s.surface_points()
     video = track_video(folder, fps=1000.0, ball_diameter=s.diameter_m,
                         surface=Surface.from_points((x1, y1), (x2, y2)))
-    fit = video.track.radius_fit
     video = dataclasses.replace(
         video, source=dataclasses.replace(video.source, **coding),
-        calibration=Calibration.from_ball_diameter(
-            s.diameter_m, video.track.ball_radius, video.track.ball_radius_se, fit.sigma,
-            fit.method, coding["jpeg_quality"], coding["bits_per_pixel"]))
+        calibration=Calibration.from_track(s.diameter_m, video.track, **coding))
     files = write_track_files(video, tmp / "out")
     record = json.loads(files["record"].read_text(encoding="utf-8"))
     cal = video.calibration

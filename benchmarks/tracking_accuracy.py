@@ -82,11 +82,7 @@ def scenario(radius, sigma, exposure, lighting, codec, seed, wall="textured",
     track_ball(frames, config=TrackerConfig(edge_model=False))
     edge_cpu = cpu - (time.process_time() - c0)  # the edge model's share, CPU seconds
     truth = shot.true_centres()
-    fit = track.radius_fit
-    cal = Calibration.from_ball_diameter(shot.diameter_m, track.ball_radius,
-                                         track.ball_radius_se,
-                                         fit.sigma if fit is not None else None,
-                                         fit.method if fit is not None else "edge model")
+    cal = Calibration.from_track(shot.diameter_m, track)
     err = track.ball_radius / radius - 1.0
     ok = track.trusted
     centre_rms = float(np.sqrt(np.nanmean(np.sum((track.centre[ok] - truth[ok]) ** 2, axis=1))))

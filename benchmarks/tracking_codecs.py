@@ -67,11 +67,8 @@ def scene(seed: int, radius: float, sigma: float, lighting: str, codec: str, q: 
         encode(render(shot), codec, q, path)
         source = read_frames(path)
     track = track_ball(source.frames)
-    fit = track.radius_fit
-    cal = Calibration.from_ball_diameter(shot.diameter_m, track.ball_radius, track.ball_radius_se,
-                                         fit.sigma if fit is not None else None,
-                                         fit.method if fit is not None else "edge model",
-                                         source.jpeg_quality, source.bits_per_pixel)
+    cal = Calibration.from_track(shot.diameter_m, track, source.jpeg_quality,
+                                 source.bits_per_pixel)
     err = track.ball_radius / radius - 1.0
     sd = cal.relative_sd if cal.relative_sd is not None else float("nan")
     return {"seed": seed, "radius_px": radius, "sigma_px": sigma, "lighting": lighting,

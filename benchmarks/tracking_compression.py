@@ -55,15 +55,13 @@ def scene_rows(seed: int, radius: float, sigma: float, light: str) -> list[dict]
     rows = []
     for q in QUALITIES:
         track = track_ball(jpeg(frames, q))
-        fit = track.radius_fit
-        cal = Calibration.from_ball_diameter(shot.diameter_m, track.ball_radius,
-                                             track.ball_radius_se, fit.sigma, fit.method, q)
+        cal = Calibration.from_track(shot.diameter_m, track, q)
         err = 100 * (track.ball_radius / radius - 1)
         sd = 100 * cal.relative_sd
         rows.append({"seed": seed, "quality": q, "radius_px": radius, "sigma_px": sigma,
                      "lighting": light, "scale_error_pct": round(err, 3),
                      "stated_sd_pct": round(sd, 3), "z": round(err / sd, 2),
-                     "method": fit.method})
+                     "method": track.radius_fit.method})
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     return rows
 

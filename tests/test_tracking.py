@@ -789,6 +789,23 @@ def test_the_scales_uncertainty_follows_what_measured_the_radius():
     with pytest.raises(ValueError, match=r"`method` must be one of 'edge model', 'small-ball "
                                          r"fit'; got 'coverage'"):
         Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 0.6, "coverage")
+    # from a track: its radius, SE, fitted blur and method, and the frames' coding (the same
+    # closed form with those fields given one by one)
+    from types import SimpleNamespace
+
+    from bouncebayes.tracking._edge import compression_px
+
+    fit = SimpleNamespace(sigma=0.6, method="small-ball fit")
+    track = SimpleNamespace(ball_radius=5.0, ball_radius_se=0.03, radius_fit=fit)
+    coded = Calibration.from_track(0.0256, track, None, 0.05)
+    assert coded.metres_per_px == small.metres_per_px
+    assert coded.relative_sd == pytest.approx(math.hypot(
+        0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * 0.6**3, compression_px(None, 0.05)) / 5.0)
+    unfitted = Calibration.from_track(0.0256, SimpleNamespace(ball_radius=5.0,
+                                                              ball_radius_se=0.03,
+                                                              radius_fit=None))
+    assert unfitted.relative_sd == pytest.approx(
+        math.hypot(0.03, edge_model_systematic_px(5.0, None)) / 5.0)
 
 
 def test_the_blurs_shape_term_is_a_ramp_in_blur_over_radius():

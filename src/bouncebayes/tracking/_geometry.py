@@ -67,6 +67,18 @@ class Calibration:
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 
+    @classmethod
+    def from_track(cls, diameter: float, track: Track, jpeg_quality: float | None = None,
+                   bits_per_pixel: float | None = None) -> Calibration:
+        """:meth:`from_ball_diameter` with the radius, its standard error, the fitted blur and
+        the method of ``track`` (``Track.radius_fit``; without one, the edge model's terms and
+        no blur), and the frames' coding (``VideoSource.jpeg_quality``, ``bits_per_pixel``)."""
+        fit = track.radius_fit
+        return cls.from_ball_diameter(diameter, track.ball_radius, track.ball_radius_se,
+                                      fit.sigma if fit is not None else None,
+                                      fit.method if fit is not None else EDGE_MODEL,
+                                      jpeg_quality, bits_per_pixel)
+
 
 def _point(name: str, p) -> tuple[float, float]:
     arr = np.asarray(p, dtype=float)

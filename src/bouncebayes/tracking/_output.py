@@ -25,7 +25,6 @@ from ._geometry import (
     plane_axes,
     to_plane_frame,
 )
-from ._edge import EDGE_MODEL
 from ._measure import CENTROID, EDGE_FIT
 from ._track import Track, TrackerConfig, track_ball
 from ._video import VideoSource, read_frames, read_image
@@ -219,12 +218,8 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         calibration = Calibration.from_reference(*reference)
     else:
         diameter = PAPER_BALL_DIAMETER if ball_diameter is None else ball_diameter
-        fit = track.radius_fit
-        calibration = Calibration.from_ball_diameter(
-            diameter, track.ball_radius, track.ball_radius_se,
-            fit.sigma if fit is not None else None,
-            fit.method if fit is not None else EDGE_MODEL, source.jpeg_quality,
-            source.bits_per_pixel)
+        calibration = Calibration.from_track(diameter, track, source.jpeg_quality,
+                                             source.bits_per_pixel)
     if surface is None:
         surface = detect_surface(track.background)
         if surface is None:
