@@ -450,6 +450,24 @@ def test_track_command_tracks_the_good_inputs_and_names_the_bad(noisy, tmp_path,
     assert (tmp_path / "out" / "good.csv").exists()
 
 
+def test_an_unreadable_mp4_gets_one_line_and_no_ffmpeg_log(tmp_path):
+    import subprocess
+    import sys
+
+    # FFmpeg logs "moov atom not found" to the process's stderr for a broken MP4; the tool
+    # prints only its own line
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(b"not a video")
+    done = subprocess.run([sys.executable, "-c", "from bouncebayes.cli import main; main()",
+                           "track", str(bad), "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0
+    assert done.stderr.strip().splitlines() == [
+        f"bouncebayes track: error: {bad}: cannot be opened as a video (readable: .mp4, .avi, "
+        ".mov, .mkv, .m4v, .mpg, .mpeg, .wmv and other FFmpeg formats, or a folder of image "
+        "frames)"]
+
+
 def test_track_command_option_errors_are_one_clear_message(tmp_path):
     with pytest.raises(ValueError, match=r"`--reference` must be X1,Y1,X2,Y2,METRES \(5 numbers "
                                          r"separated by commas\); got '1,2,3'"):

@@ -120,6 +120,9 @@ def _main(argv: list[str], stop: _Stop) -> int:
     # numba's threads beside a multi-threaded BLAS oversubscribe the cores (10x slowdown
     # measured); set before NumPy loads its BLAS, and limited below where it already has
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    # FFmpeg (under OpenCV) writes its own lines to stderr for a file it cannot read ("moov
+    # atom not found"); the tool's one-line error names the file and says what it accepts
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     with stop.handling():
         args = build_parser(_chosen(argv)).parse_args(argv)
         if stop.program:
