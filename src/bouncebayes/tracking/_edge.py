@@ -43,10 +43,13 @@ projection), and those seven by a compiled Levenberg-Marquardt within bounds
 call, :func:`._edge_kernel.varpro`) from the best point of a grid
 of radius and blur (the model has local minima where blur trades against the shading near the
 rim). Saturated pixels (a specular highlight) are left out, and pixels the smooth model cannot
-follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass.
+follow (a highlight's lobe, texture on the ball) are down-weighted in a second pass. Each
+residual is divided by its SD where the background shows through (the background model is a
+median of a few dozen frames and carries their noise; :func:`._edge_kernel.varpro`).
 :func:`fit_radius` fits 5 frames alone, then 9 again with the blur and exposure held at their
 medians (shared by the video: one lens, one exposure), and takes the median radius; 13 and 25
-where the ball is blurred by ``BLURRED`` of its radius or more. Written
+where the ball is blurred by ``BLURRED`` of its radius or more, and there the radius is the one
+that fits those frames together, one shading for all (:func:`joint_radius`). Written
 here because no library fits a blurred, shaded disk.
 """
 
@@ -303,6 +306,7 @@ class _Pixels(NamedTuple):
     frame: np.ndarray      # 0 .. n_frames - 1
     n_frames: int
     weight: np.ndarray
+    kappa: np.ndarray      # the background's variance over the frame's noise variance
 
 
 @functools.lru_cache(maxsize=1)
@@ -427,19 +431,20 @@ def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
     zt, gt = _sqrt_table()
     r, sigma, exposure, az, el = (float(x) for x in q)
     res, jac, ok = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
-                          px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight, px.grey,
-                          px.bg, px.gbu, px.gbv, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(),
+                          px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight,
+                          px.kappa, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(),
                           RIM_ORDER, want_jac)
     if not ok:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
     return res, jac
 
 
-def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: bool
-            ) -> _Pixels | None:
+def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: bool,
+            kappa: np.ndarray | None) -> _Pixels | None:
     """Pixels of one frame with ``r0 - inner <= rho <= r0 + outer`` from ``c``, saturated ones
     and their neighbours left out, with the background's gradient where ``occlusion`` (else
-    zero: no occlusion term); None if they leave the frame."""
+    zero: no occlusion term) and its relative variance ``kappa`` (a map as the frame's; None:
+    the background taken as exact); None if they leave the frame."""
     h, w = img.shape
     reach = r0 + outer
     u0, v0 = int(math.floor(c[0] - reach)), int(math.floor(c[1] - reach))
@@ -474,11 +479,13 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: b
         gbu, gbv = g_u[box].ravel()[idx], g_v[box].ravel()[idx]
     else:
         gbu = gbv = np.zeros(idx.size)
+    kap = np.zeros(n) if kappa is None else \
+        kappa[v0:v1, u0:u1].ravel()[idx].astype(np.float64)
     speed = math.hypot(*vel)
     du, dv = (vel[0] / speed, vel[1] / speed) if speed > 0 else (1.0, 0.0)
     full = functools.partial(np.full, n)
     return _Pixels(uu, vv, sub, bgw, gbu, gbv, full(c[0]), full(c[1]), full(du), full(dv),
-                   full(speed), np.zeros(n, np.intp), 1, np.ones(n))
+                   full(speed), np.zeros(n, np.intp), 1, np.ones(n), kap)
 
 
 class EdgeFit(NamedTuple):
@@ -496,12 +503,13 @@ class EdgeFit(NamedTuple):
     el: float
 
 
-def _rim_pixels(img, bg, q: np.ndarray, velocity) -> _Pixels | None:
+def _rim_pixels(img, bg, q: np.ndarray, velocity, kappa: np.ndarray | None
+                ) -> _Pixels | None:
     """The pixels the fit at ``q = (cx, cy, r, sigma, exposure, ...)`` reads: from 2.5 blurs
     (or ``INNER r``) inside the rim to 2 px + 3 blurs outside (:func:`_pixels`)."""
     b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * math.hypot(*velocity)) ** 2 / 12)
     return _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b,
-                   q[2] >= OCCLUSION_MIN_RADIUS)
+                   q[2] >= OCCLUSION_MIN_RADIUS, kappa)
 
 
 def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.ndarray
@@ -513,7 +521,7 @@ def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.
     zt, gt = _sqrt_table()
     q, res, status = fit_frame(q, free, lo[free], hi[free], 0.05, XTOL, FTOL, MAX_NFEV, px.u,
                                px.v, px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames,
-                               px.weight, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]),
+                               px.weight, px.kappa, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]),
                                float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER)
     if status < 0:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
@@ -522,15 +530,17 @@ def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.
 
 def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
              held: tuple[float, float, float, float] | None = None,
-             light: tuple[float, float] | None = None) -> EdgeFit | None:
+             light: tuple[float, float] | None = None, kappa: np.ndarray | None = None
+             ) -> EdgeFit | None:
     """Fit the edge model to one frame around ``centre`` (px; ``bg`` the background model
     scaled to the frame, ``velocity`` px per frame) from a first radius ``r0``; with ``held =
     (sigma, exposure, az, el)`` the blur, exposure and light's direction are held, with
-    ``light = (az, el)`` the light's direction. None if the pixels leave the frame or the fit
-    fails."""
+    ``light = (az, el)`` the light's direction; ``kappa``: the background's variance in units
+    of the frame's noise variance, a map (:func:`._edge_kernel.varpro`; None: the background
+    taken as exact). None if the pixels leave the frame or the fit fails."""
     speed = math.hypot(*velocity)
     q = np.array([centre[0], centre[1], r0, *held]) if held else \
-        _start(img, bg, centre, velocity, r0)
+        _start(img, bg, centre, velocity, r0, kappa)
     if q is None:
         return None
     fixed = np.zeros(7, bool) if held is None else np.array([0, 0, 0, 1, 1, 1, 1], bool)
@@ -545,7 +555,7 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
         # the light's direction: the model without a shadow fitted first, then the best of a
         # grid of directions there (from the grid's start the fits ended 40-60 degrees from
         # the light, in local minima, on a noisy side-lit 15 px ball blurred by 1.5 px)
-        lit = _light_start(img, bg, q, velocity, lo, hi)
+        lit = _light_start(img, bg, q, velocity, lo, hi, kappa)
         if lit is None:
             return None
         fixed[5:] = lit[6] == _NO_SHADOW
@@ -555,7 +565,7 @@ def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
         q = q if fixed[5] else lit
     res = px = None
     for _ in range(2):  # twice: the pixels are chosen again from the first fit
-        px = _rim_pixels(img, bg, q, velocity)
+        px = _rim_pixels(img, bg, q, velocity, kappa)
         if px is None or px.u.size < 40:
             return None
         q = np.where(fixed, q, np.clip(q, lo + 1e-9, hi - 1e-9))  # held: as given (pi/2)
@@ -601,15 +611,15 @@ def _every_other(px: _Pixels) -> _Pixels:
                        gbu=half(px.gbu), gbv=half(px.gbv),
                        cx=half(px.cx), cy=half(px.cy), dir_u=half(px.dir_u),
                        dir_v=half(px.dir_v), speed=half(px.speed), frame=half(px.frame),
-                       weight=half(px.weight))
+                       weight=half(px.weight), kappa=half(px.kappa))
 
 
-def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
+def _light_start(img, bg, q, velocity, lo, hi, kappa) -> np.ndarray | None:
     """``q`` with the centre, radius, blur and exposure fitted without a shadow, and the
     light's direction the best of ``_START_AZIMUTHS`` x ``_START_ELEVATIONS`` there, or none
     (elevation pi/2) where that is not better by ``SHADOW_MIN_GAIN`` or the blur is above
     ``SHADOW_MAX_BLUR`` of the radius."""
-    px = _rim_pixels(img, bg, q, velocity)
+    px = _rim_pixels(img, bg, q, velocity, kappa)
     if px is None or px.u.size < 40:
         return None
     free = np.array([1, 1, 1, 1, 1, 0, 0], bool)
@@ -645,12 +655,12 @@ def _light_start(img, bg, q, velocity, lo, hi) -> np.ndarray | None:
     return q_lit
 
 
-def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
+def _start(img, bg, centre, velocity, r0: float, kappa) -> np.ndarray | None:
     """The best starting ``(cx, cy, r, sigma, exposure, az, el)`` on a grid of radius and
     blur (centre held, no shadow: the edge model has local minima where a blur trades
     against the shading near the rim)."""
     px = _pixels(img, bg, centre, velocity, 1.25 * r0, 1.25 * r0, 7.0,
-                 r0 >= OCCLUSION_MIN_RADIUS)
+                 r0 >= OCCLUSION_MIN_RADIUS, kappa)
     if px is None or px.u.size < 40:
         return None
     best, q_best = math.inf, None
@@ -670,7 +680,7 @@ def _start(img, bg, centre, velocity, r0: float) -> np.ndarray | None:
     return q_best
 
 
-def _shared_light(args, fits: list[EdgeFit]) -> tuple[float, float]:
+def _shared_light(args, fits: list[EdgeFit], kappa) -> tuple[float, float]:
     """The light's direction ``(az, el)`` of the video, of those the first fits found.
 
     The one of the directions of ``fits`` (on the frames ``args``) that fits those frames best
@@ -682,7 +692,7 @@ def _shared_light(args, fits: list[EdgeFit]) -> tuple[float, float]:
     frames = []  # each frame's fit (its light to be replaced) and pixels
     for (img, bg, _, v), f in zip(args, fits, strict=True):
         q = np.array([f.cx, f.cy, f.r, f.sigma, f.exposure, f.az, f.el])
-        px = _rim_pixels(img, bg, q, v)
+        px = _rim_pixels(img, bg, q, v, kappa)
         if px is not None:
             frames.append((q, px, f.rms ** 2 * px.u.size + 1e-9))
     best, light = math.inf, (fits[0].az, fits[0].el)
@@ -699,13 +709,104 @@ def _shared_light(args, fits: list[EdgeFit]) -> tuple[float, float]:
     return light
 
 
+def _stack(pxs: Sequence[_Pixels]) -> _Pixels:
+    """The pixels of several frames as one set (frame ``k`` the ``k``-th's; each pixel keeps
+    its frame's centre in ``cx, cy``)."""
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([getattr(p, name) for p in pxs])
+
+    frame = np.concatenate([np.full(p.u.size, k, np.intp) for k, p in enumerate(pxs)])
+    return _Pixels(cat("u"), cat("v"), cat("grey"), cat("bg"), cat("gbu"), cat("gbv"), cat("cx"),
+                   cat("cy"), cat("dir_u"), cat("dir_v"), cat("speed"), frame, len(pxs),
+                   cat("weight"), cat("kappa"))
+
+
+def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
+                 kappa: np.ndarray | None) -> tuple[float, np.ndarray] | None:
+    """The radius that fits the frames ``args`` (image, background, centre, velocity) best
+    together, and their centres ``(n, 2)``: one radius and one shading of the ball (its linear
+    coefficients) for all, the blur, exposure and light ``held``, each frame its own centre
+    and local background levels; from the frames' own fits ``fits`` (their centres, the
+    median radius; each frame's pixels and robust weights as its fit's). None where the fit
+    fails.
+
+    Why: a frame alone hardly holds the radius where the blur is a large part of it (the
+    shading's limb and level trade against a blurred step at another radius), and what it
+    holds is biased by the noise: radius 10 px, blur 1.5 px (held at the truth), noise 3 grey
+    levels, exact background: the frames' radii scatter by 3 % and their median sits +1.4 %
+    out (a uniform dark disk; +3.7 % on benchmarks/tracking_accuracy.py's dark ball on a plain
+    wall, seed 11); the ball's shading is the same in every frame (one lamp, far away), and
+    shared it takes that freedom away (docs/tracking.md §3)."""
+    from scipy.optimize import least_squares
+
+    sigma, exposure, az, el = held
+    pxs = []
+    for (img, bg, _, v), f in zip(args, fits, strict=True):
+        q = np.array([f.cx, f.cy, f.r, sigma, exposure, az, el])
+        px = _rim_pixels(img, bg, q, v, kappa)
+        if px is None or px.u.size < 40:
+            return None
+        try:
+            res = _residual(q, px)
+        except np.linalg.LinAlgError:
+            return None
+        scale = 1.4826 * float(np.median(np.abs(res))) + 1e-9
+        pxs.append(px._replace(weight=(np.abs(res) <= 4.0 * scale).astype(np.float64)))
+    every = _stack(pxs)
+    n = len(pxs)
+    r0 = float(np.median([f.r for f in fits]))
+    c0 = np.array([[f.cx, f.cy] for f in fits])
+    free = np.array([1, 1, 1, 0, 0, 0, 0], bool)  # each frame's centre, the radius
+
+    def at(x: np.ndarray) -> tuple[np.ndarray, _Pixels]:
+        c = x[1:].reshape(n, 2)
+        return (np.array([x[0], sigma, exposure, az, el]),
+                every._replace(cx=c[every.frame, 0], cy=c[every.frame, 1]))
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        return _evaluate(*at(x), _NONE_FREE, False)[0]
+
+    def jac(x: np.ndarray) -> np.ndarray:
+        jc = _evaluate(*at(x), free, True)[1]  # each frame's (cx, cy), then the radius
+        return np.hstack([jc[:, -1:], jc[:, :-1]])
+
+    x0 = np.concatenate([[r0], c0.ravel()])
+    lo = np.concatenate([[0.75 * r0], c0.ravel() - 2.0])
+    hi = np.concatenate([[1.3 * r0], c0.ravel() + 2.0])
+    try:
+        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), x_scale="jac", xtol=1e-6,
+                            ftol=1e-8, max_nfev=50)
+    except np.linalg.LinAlgError:
+        return None
+    if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
+        return None
+    return float(sol.x[0]), sol.x[1:].reshape(n, 2)
+
+
 # frames, backgrounds, centres (px) and velocities (px per frame) of the frames fitted
 _FrameInputs = tuple[Sequence[np.ndarray], Sequence[np.ndarray], np.ndarray, np.ndarray]
 
 
+def _held_fits(args, first: dict[int, EdgeFit | None], r1: float,
+               held: tuple[float, float, float, float], kappa) -> list[EdgeFit | None]:
+    """Every frame of ``args`` fitted from radius ``r1`` with the blur, exposure and light
+    ``held`` (from its free fit's centre where ``first`` has one; None where that failed: a
+    frame the model cannot follow)."""
+    second: list[EdgeFit | None] = []
+    for i, (img, bg, c, v) in enumerate(args):
+        f = first.get(i)
+        if i in first and f is None:
+            second.append(None)
+        else:
+            second.append(fit_edge(img, bg, c if f is None else (f.cx, f.cy), v, r1,
+                                   held=held, kappa=kappa))
+    return second
+
+
 def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
                centres: np.ndarray, velocities: np.ndarray, r0: float,
-               more: Callable[[], _FrameInputs] | None = None) -> RadiusFit | None:
+               more: Callable[[], _FrameInputs] | None = None,
+               kappa: np.ndarray | None = None) -> RadiusFit | None:
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
     ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
@@ -713,12 +814,16 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     below); the median radius and its standard error. Where those first fits find a blur of
     ``BLURRED`` to ``MORE_FRAMES_MAX_BLUR`` of the radius, ``more()`` gives more frames (the
     same four sequences; ``RadiusFit.frames`` then counts them after the frames given), up to
-    ``FIRST_FRAMES_BLURRED`` in all are fitted alone and every frame with the blur held. None
-    if fewer than 3 frames could be fitted."""
+    ``FIRST_FRAMES_BLURRED`` in all are fitted alone and every frame with the blur held, and
+    the radius and centres are those of the frames fitted together (:func:`joint_radius`; the
+    standard error stays the median's).
+    ``kappa``: the backgrounds' variance in units of the frames' noise variance, one map for
+    the video (:func:`fit_edge`). None if fewer than 3 frames could be fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
     # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
     # frames, spread: they only set the shared blur, exposure, light and the starting radius
-    first = {int(i): fit_edge(*args[int(i)], r0) for i in spread(len(args), FIRST_FRAMES)}
+    first = {int(i): fit_edge(*args[int(i)], r0, kappa=kappa)
+             for i in spread(len(args), FIRST_FRAMES)}
     ok = [f for f in first.values() if f is not None]
     if len(ok) < 3:
         return None
@@ -729,34 +834,33 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
         n = len(args)
         args += extra
         for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
-            first[int(i)] = fit_edge(*args[int(i)], r0)
+            first[int(i)] = fit_edge(*args[int(i)], r0, kappa=kappa)
         ok = [f for f in first.values() if f is not None]
     # one lens, one exposure, one lamp: a shadow if most of the frames found one, the light
     # then the one of their directions that fits their frames best together, and those frames
     # fitted again under it; the blur, exposure and starting radius from the frames that agree
     shadow = [f for f in ok if f.el < _NO_SHADOW]
     agree = shadow if 2 * len(shadow) > len(ok) else [f for f in ok if f.el >= _NO_SHADOW]
-    light = _shared_light([args[i] for i, f in first.items() if f in shadow], shadow) \
+    light = _shared_light([args[i] for i, f in first.items() if f in shadow], shadow, kappa) \
         if agree is shadow else (0.0, _NO_SHADOW)
     if agree is shadow:  # the shadow frames again with that light: their blur and exposure
-        again = [fit_edge(*args[i], r0, light=light) for i, f in first.items() if f in shadow]
+        again = [fit_edge(*args[i], r0, light=light, kappa=kappa)
+                 for i, f in first.items() if f in shadow]
         agree = [f for f in again if f is not None] or shadow
     held = (float(np.median([f.sigma for f in agree])),
             float(np.median([f.exposure for f in agree])), *light)
-    r1 = float(np.median([f.r for f in agree]))
-    second: list[EdgeFit | None] = []
-    for i, (img, bg, c, v) in enumerate(args):
-        f = first.get(i)
-        if i in first and f is None:  # its free fit failed: a frame the model cannot follow
-            second.append(None)
-        else:
-            second.append(fit_edge(img, bg, c if f is None else (f.cx, f.cy), v, r1,
-                                   held=held))
+    second = _held_fits(args, first, float(np.median([f.r for f in agree])), held, kappa)
     fits = [f for f in second if f is not None]
     if len(fits) < 3:
         return None
     med, se = median_and_se(np.array([f.r for f in fits]))
     used = [i for i, f in enumerate(second) if f is not None]
+    centres = np.array([[f.cx, f.cy] for f in fits])
+    if BLURRED <= held[0] / med <= MORE_FRAMES_MAX_BLUR:
+        # blurred for its size: the frames together (the SE stays the frames' scatter's)
+        joint = joint_radius([args[i] for i in used], fits, held, kappa)
+        if joint is not None:
+            med, centres = joint
     return RadiusFit(med, se, held[0], held[1], float(np.median([f.rms for f in fits])),
-                     tuple(used), np.array([[f.cx, f.cy] for f in fits]), light=held[2:])
+                     tuple(used), centres, light=held[2:])
 

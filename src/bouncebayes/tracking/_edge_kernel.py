@@ -357,12 +357,15 @@ def _cho_solve(low, b):
 
 @njit(cache=True)
 def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v, speed, frame,
-           n_frames, weight, grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order, want_jac):
+           n_frames, weight, kappa, grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order,
+           want_jac):
     """The edge model's weighted residual at ``(cx, cy, r, sigma, exposure, az, el)`` (the
     light's direction; elevation pi/2 or more: no shadow columns), the linear
     coefficients solved (variable projection), and its Jacobian with respect to the
     parameters flagged in ``free`` (``(n_pix, n_free)``; empty unless ``want_jac``), in one
-    call. ``gbu, gbv``: the background's gradient (grey levels per px; the wall's occlusion
+    call; with the centre free (``free[0]`` and ``free[1]``) its columns are each frame's
+    centre's, ``(cx, cy)`` of frame 0, of frame 1, ..., then the others (one frame: the usual
+    seven). ``gbu, gbv``: the background's gradient (grey levels per px; the wall's occlusion
     term of :func:`_row`). Each pixel's centre is ``(cu + cx, cv + cy)``: ``cu, cv`` the
     frames' offsets (zero for one frame), ``cx, cy`` a shift shared by all. The coefficients
     are the normal equations' with a small ridge (the columns are O(1) functions of the pixels: a
@@ -370,7 +373,16 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     ``res = y - A beta``, ``beta = M^-1 A^T y``, ``M = A^T A + ridge`` (Golub & Pereyra 1973;
     the ridge held): ``d res = g - A M^-1 (A^T g + dA^T res)``, ``g = dy - dA beta``; ``dA``
     and ``dy`` from :func:`_row` and :func:`_drow`. ``ok`` is False where the normal
-    equations are singular."""
+    equations are singular.
+
+    ``kappa``: the background model's variance at each pixel in units of the frame's noise
+    variance there. Each residual is divided by its SD, ``sqrt(1 + kappa (1 - S)^2)`` (``S`` the
+    blurred step: the background shows through ``1 - S`` of the pixel), ``weight`` times that:
+    the cost profiled over the background's errors with their Gaussian prior. Its expectation
+    is the same at every radius (``E[res^2] / (1 + kappa (1 - S)^2)`` is the noise variance plus
+    the model's error), where the plain sum of squares falls by ``kappa (1 - S)^2`` noise
+    variances for each pixel the ball covers more and so pulls the radius out. The weights'
+    derivatives are in the Jacobian."""
     n = u.size
     lit = el < _HALF_PI  # a shadow on the rim: its two columns
     n_shared = 11 + 2 * max(rim_order - 2, 0) + (2 if lit else 0)
@@ -390,7 +402,8 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
         step, occ = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i],
                          r, sigma, exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order,
                          False, row, part, chain, ang, cp, gbu[i], gbv[i], docc)
-        w = weight[i]
+        out = 1.0 - step
+        w = weight[i] / math.sqrt(1.0 + kappa[i] * out * out)
         for c in range(n_shared):
             a[i, c] = row[c] * w
         j = n_shared + 3 * frame[i]
@@ -413,8 +426,10 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     ridge = 1e-9 * (trace / m + 1.0)
     for c in range(m):
         low[c, c] += ridge
-    n_free = 0
-    for k in range(7):
+    # the centre's columns: one pair per frame
+    n_centre = 2 * n_frames if free[0] else 0
+    n_free = n_centre
+    for k in range(2, 7):
         n_free += 1 if free[k] else 0
     res = np.empty(n)
     jac = np.empty((n, n_free if want_jac else 0))
@@ -429,34 +444,43 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
         res[i] = t
     if not want_jac:
         return res, jac, True
-    g = np.empty((n, n_free))
+    g = np.zeros((n, n_free))
     h = np.zeros((m, n_free))
     for i in range(n):
-        _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r, sigma,
-             exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order, True, row, part, chain,
-             ang, cp, gbu[i], gbv[i], docc)
-        w = weight[i]
+        step, _ = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r,
+                       sigma, exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order, True,
+                       row, part, chain, ang, cp, gbu[i], gbv[i], docc)
+        out = 1.0 - step
+        spread = 1.0 + kappa[i] * out * out
+        w = weight[i] / math.sqrt(spread)
         wr = w * res[i]
         j = n_shared + 3 * frame[i]
-        col = 0
+        col = n_centre
         for k in range(7):
             if not free[k]:
                 continue
+            if k < 2:  # the pixel's own frame's centre
+                at = 2 * frame[i] + k
+            else:
+                at = col
+                col += 1
             _drow(part, chain, ang, cp, k, rim_order, lit, drow)
+            # the weight's own derivative, relative: dw / w = kappa (1 - S) dS / spread; with it
+            # dA = w dA0 + (dw / w) A and dy = w dy0 + (dw / w) y, so g gains (dw / w) res
+            dw = kappa[i] * out * drow[0] / spread
             t = bg[i] * drow[0] - docc[k]  # dy: y = (grey - bg (1 - step) - occ) w
             for c in range(n_shared):
                 t -= drow[c] * beta[c]
-                h[c, col] += drow[c] * wr
+                h[c, at] += drow[c] * wr + dw * a[i, c] * res[i]
             for c in range(3):
                 t -= drow[n_shared + c] * beta[j + c]
-                h[j + c, col] += drow[n_shared + c] * wr
-            t *= w
-            g[i, col] = t
+                h[j + c, at] += drow[n_shared + c] * wr + dw * a[i, j + c] * res[i]
+            t = t * w + dw * res[i]
+            g[i, at] = t
             for c in range(n_shared):  # h += A^T g (the row's nonzero columns)
-                h[c, col] += a[i, c] * t
+                h[c, at] += a[i, c] * t
             for c in range(j, j + 3):
-                h[c, col] += a[i, c] * t
-            col += 1
+                h[c, at] += a[i, c] * t
     sol = np.empty((m, n_free))
     for col in range(n_free):
         rhs = h[:, col].copy()
@@ -475,15 +499,15 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
 
 
 @njit(cache=True)
-def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, gbu,
-                    gbv, z0, dz, table, nodes, rim_order):
+def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight, kappa, grey,
+                    bg, gbu, gbv, z0, dz, table, nodes, rim_order):
     """:func:`varpro` at ``q = (cx, cy, r, sigma, exposure, az, el)`` of one frame's pixels,
     with the Jacobian; ``ok`` False where the normal equations are singular or a residual is not
     finite."""
     zero = np.zeros(u.size)
     res, jac, ok = varpro(q[0], q[1], q[2], q[3], q[4], q[5], q[6], free, u, v, zero, zero,
-                          dir_u, dir_v, speed, frame, n_frames, weight, grey, bg, gbu, gbv, z0,
-                          dz, table, nodes, rim_order, True)
+                          dir_u, dir_v, speed, frame, n_frames, weight, kappa, grey, bg, gbu,
+                          gbv, z0, dz, table, nodes, rim_order, True)
     if ok:
         for i in range(res.size):
             if not math.isfinite(res[i]):
@@ -493,7 +517,8 @@ def _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
 
 @njit(cache=True)
 def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_v, speed,
-              frame, n_frames, weight, grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order):
+              frame, n_frames, weight, kappa, grey, bg, gbu, gbv, z0, dz, table, nodes,
+              rim_order):
     """Least squares of the edge model of one frame over the parameters of ``q0 = (cx, cy, r,
     sigma, exposure, az, el)`` flagged in ``free``, within ``lo <= x <= hi`` (the free ones):
     Levenberg-Marquardt on the analytic Jacobian of :func:`varpro`, in the variables
@@ -523,7 +548,7 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
             idx[j] = k
             j += 1
     res, jac, ok = _evaluate_frame(q, free, u, v, dir_u, dir_v, speed, frame, n_frames, weight,
-                                   grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order)
+                                   kappa, grey, bg, gbu, gbv, z0, dz, table, nodes, rim_order)
     if not ok:
         return q, res, -1
     nfev = 1
@@ -602,8 +627,8 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
             predicted -= grad[a] * step[a] + 0.5 * step[a] * t
         small = math.sqrt(snorm) < xtol * (xtol + math.sqrt(xnorm))
         res_t, jac_t, ok = _evaluate_frame(trial, free, u, v, dir_u, dir_v, speed, frame,
-                                           n_frames, weight, grey, bg, gbu, gbv, z0, dz,
-                                           table, nodes, rim_order)
+                                           n_frames, weight, kappa, grey, bg, gbu, gbv, z0,
+                                           dz, table, nodes, rim_order)
         nfev += 1
         actual = cost - 0.5 * np.dot(res_t, res_t) if ok else -math.inf
         if predicted > 0.0 and actual > 1e-4 * predicted:

@@ -230,15 +230,15 @@ def _median(a):
 
 
 @njit(cache=True)
-def ball_free_background(frames, idx, gains, out, done, centre, reach, min_clear, around, half,
-                         tile):
+def ball_free_background(frames, idx, gains, out, count, done, centre, reach, min_clear, around,
+                         half, tile):
     """The background model ``out`` (float64, in place) with the ball left out, within ``half``
     (px) of the points ``around`` (``(m, 2)``, NaN rows skipped; where the fits will look) and
     not ``done`` (bool, in place: set where computed): each pixel there within ``reach`` (px)
     of the ball's centre in one of the frames ``idx`` (``centre`` their tracked centres, NaN
     where not found) gets the median of ``frame / gain`` over the frames of ``idx`` where the
-    ball is farther than ``reach`` from it, if at least ``min_clear`` are; every other pixel
-    keeps its value.
+    ball is farther than ``reach`` from it, if at least ``min_clear`` are, and ``count`` (in
+    place) the number of those frames; every other pixel keeps its values.
 
     The plain median takes in the frames the ball covers: a pixel on the ball's path is
     covered in ~1/4 of the frames of a 1.5 px-per-frame bounce, which moves the median by ~0.3
@@ -288,6 +288,7 @@ def ball_free_background(frames, idx, gains, out, done, centre, reach, min_clear
                             m += 1
                     if m < n and m >= min_clear:  # the ball near the pixel in some frame
                         out[i, j] = _median(buf[:m])
+                        count[i, j] = m
 
 
 @njit(cache=True)

@@ -150,11 +150,12 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     extra = np.setdiff1d(cand[spread(len(cand), MAX_FRAMES_BLURRED)], pick)
 
     def inputs(idx: np.ndarray) -> _FrameInputs:
-        bg = clean(centre[idx])
+        bg = clean(centre[idx])[0]
         return ([frames[k] for k in idx], [gains[k] * bg for k in idx], centre[idx],
                 (centre[idx + 1] - centre[idx - 1]) / 2.0)
 
-    fit = fit_radius(*inputs(pick), r0, more=lambda: inputs(extra))
+    kappa = clean(centre[pick])[1]  # one map, updated in place as more() asks for frames
+    fit = fit_radius(*inputs(pick), r0, more=lambda: inputs(extra), kappa=kappa)
     if fit is None:
         return None, (0.0, 0.0)
     pick = np.concatenate([pick, extra])

@@ -407,7 +407,8 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
     ``SMALL_RADIUS``) and its fitted blur at most ``SMALL_FIT_BLUR`` of it (a failed fit
     keeps its centroid); returns :class:`Refined`. First the radius and the light
     (:func:`_radius_and_light`), then every frame with that radius held.
-    ``clean(centres)``: the background model with the ball left out around ``centres``."""
+    ``clean(centres)``: the background model with the ball left out around ``centres`` (and
+    its variance map, not used here)."""
     from ._edge import SMALL_FIT_BLUR
     from ._measure import CENTROID, EDGE_FIT
 
@@ -474,7 +475,7 @@ def _inputs(frames, clean, gains, centre, idx, fit) -> _Inputs:
                    0.0)
     zt, gt = _sqrt_table()
     f64 = functools.partial(np.ascontiguousarray, dtype=np.float64)
-    return _Inputs(np.ascontiguousarray(frames), f64(clean(centre[idx])), f64(gains), idx,
+    return _Inputs(np.ascontiguousarray(frames), f64(clean(centre[idx])[0]), f64(gains), idx,
                    f64(centre[idx]), f64(vel), (float(fit.sigma), float(fit.exposure)),
                    (float(zt[0]), float(zt[1] - zt[0]), gt, np.gradient(gt, zt)),
                    _nodes(SHADOW_NODES))

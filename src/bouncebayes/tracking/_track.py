@@ -147,15 +147,26 @@ MIN_CLEAR = 5  # frames clear of the ball a pixel's ball-free background needs (
 # edge model's cost falls where the background's noise is left out (the pixels the ball covers
 # do not see it), so that noise pushes the radius up along the cost's flat direction: dark
 # ball, radius 10 px, blur 1.5 px, plain wall, noise 3.3 grey levels: +5.4 % with 25 frames,
-# +0.5 % with 75, +0.2 % with 90 (benchmarks/tracking_accuracy.py; docs/tracking.md §3).
+# +0.5 % with 75, +0.2 % with 90 (benchmarks/tracking_accuracy.py; docs/tracking.md §3). What
+# noise remains (pi / (2 m) of a frame's variance, m the frames clear of the pixel) the edge
+# model's weights take in (._edge_kernel.varpro, the map from :func:`median_variance`).
 CLEAN_FRAMES = 75
 TILE = 32  # px: the ball-free background is computed tile by tile (a tile's frames copied)
+
+
+def median_variance(m):
+    """The variance of the median of ``m`` samples of a normal noise, in units of one
+    sample's: ``pi / (2 m)`` (its large-``m`` limit; within 10 % of the exact one from ``m =
+    5``, 0.287 against 0.314)."""
+    return 0.5 * math.pi / np.asarray(m, np.float64)
 
 
 def _ball_free_background(frames, bg64, gains, centre, radius, config):
     """A function ``clean(centres)``: the background model (float64) recomputed around the
     ball's positions ``centres`` (px; within ``1.25 r + 12 px`` of them, where the edge and
-    centre fits read; each pixel once over the calls, the same array returned) from
+    centre fits read; each pixel once over the calls, the same array returned), and its
+    variance in units of a frame's noise variance (:func:`median_variance` of the frames
+    each pixel's median took; a map, for the edge model's weights), from
     ``CLEAN_FRAMES`` evenly spaced frames in which the ball is clear of the pixel
     (:func:`._fast.ball_free_background`): farther than ``1.25 r + 6 px + d / 2`` from its
     centre (``r`` the median coverage radius, ``d`` the largest move between frames:
@@ -163,9 +174,10 @@ def _ball_free_background(frames, bg64, gains, centre, radius, config):
     two frames, the background model as it is."""
     from . import _fast
 
+    plain = np.full(bg64.shape, median_variance(min(config.background_frames, len(frames))))
     found = ~np.isnan(centre[:, 0])
     if found.sum() < 2:
-        return lambda centres: bg64
+        return lambda centres: (bg64, plain)
     r = float(np.nanmedian(radius))
     step = np.hypot(*np.diff(centre[found], axis=0).T)
     reach = 1.25 * r + 6.0 + 0.5 * float(np.max(step, initial=0.0))
@@ -173,13 +185,19 @@ def _ball_free_background(frames, bg64, gains, centre, radius, config):
     frames = np.ascontiguousarray(frames)
     at = np.ascontiguousarray(centre[idx])
     half = 1.25 * r + 12.0
-    out, done = bg64.copy(), np.zeros(bg64.shape, bool)  # kept: each pixel computed once
+    # kept: each pixel computed once
+    out, done = bg64.copy(), np.zeros(bg64.shape, bool)
+    count = np.full(bg64.shape, float(min(config.background_frames, len(frames))))
+    kappa = median_variance(count)  # kept too: updated in place as pixels are computed
 
-    def clean(centres: np.ndarray) -> np.ndarray:
+    def clean(centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         around = np.ascontiguousarray(np.asarray(centres, np.float64).reshape(-1, 2))
-        _fast.ball_free_background(frames, idx, gains, out, done, at, reach, MIN_CLEAR, around,
-                                   half, TILE)
-        return out
+        _fast.ball_free_background(frames, idx, gains, out, count, done, at, reach, MIN_CLEAR,
+                                   around, half, TILE)
+        kappa[:] = median_variance(count)
+        return out, kappa
+
+    return clean
 
     return clean
 
@@ -276,7 +294,8 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
     from ._refine import refine_centres, stated_centre_sd
 
     gains = np.asarray(state.gains, np.float64)
-    clean = (lambda centres: state.bg64) if given else \
+    # a background given is taken as exact (its noise is not known)
+    clean = (lambda centres: (state.bg64, np.zeros(state.bg64.shape))) if given else \
         _ball_free_background(frames, state.bg64, gains, centre, radius, config)
     fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius) if \
         config.edge_model else (None, (0.0, 0.0))
