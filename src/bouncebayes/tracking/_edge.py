@@ -58,7 +58,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable, Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -307,6 +307,10 @@ class _Pixels(NamedTuple):
     n_frames: int
     weight: np.ndarray
     kappa: np.ndarray      # the background's variance over the frame's noise variance
+
+
+# the fields of _Pixels with one entry per pixel (all but n_frames)
+_PER_PIXEL = tuple(name for name in _Pixels._fields if name != "n_frames")
 
 
 @functools.lru_cache(maxsize=1)
@@ -604,14 +608,9 @@ def _every_other(px: _Pixels) -> _Pixels:
     """Every other pixel of ``px`` (one frame's), in contiguous arrays (strided ones made the
     compiled kernel compile another version on the first video with a large ball, after
     ``bouncebayes warmup``)."""
-    def half(a: np.ndarray) -> np.ndarray:
-        return np.ascontiguousarray(a[::2])
-
-    return px._replace(u=half(px.u), v=half(px.v), grey=half(px.grey), bg=half(px.bg),
-                       gbu=half(px.gbu), gbv=half(px.gbv),
-                       cx=half(px.cx), cy=half(px.cy), dir_u=half(px.dir_u),
-                       dir_v=half(px.dir_v), speed=half(px.speed), frame=half(px.frame),
-                       weight=half(px.weight), kappa=half(px.kappa))
+    half: dict[str, Any] = {name: np.ascontiguousarray(getattr(px, name)[::2])
+                            for name in _PER_PIXEL}
+    return px._replace(**half)
 
 
 def _light_start(img, bg, q, velocity, lo, hi, kappa) -> np.ndarray | None:
@@ -712,13 +711,11 @@ def _shared_light(args, fits: list[EdgeFit], kappa) -> tuple[float, float]:
 def _stack(pxs: Sequence[_Pixels]) -> _Pixels:
     """The pixels of several frames as one set (frame ``k`` the ``k``-th's; each pixel keeps
     its frame's centre in ``cx, cy``)."""
-    def cat(name: str) -> np.ndarray:
-        return np.concatenate([getattr(p, name) for p in pxs])
-
+    joined: dict[str, Any] = {name: np.concatenate([getattr(p, name) for p in pxs])
+                              for name in _PER_PIXEL}
+    every = pxs[0]._replace(**joined)
     frame = np.concatenate([np.full(p.u.size, k, np.intp) for k, p in enumerate(pxs)])
-    return _Pixels(cat("u"), cat("v"), cat("grey"), cat("bg"), cat("gbu"), cat("gbv"), cat("cx"),
-                   cat("cy"), cat("dir_u"), cat("dir_v"), cat("speed"), frame, len(pxs),
-                   cat("weight"), cat("kappa"))
+    return every._replace(frame=frame, n_frames=len(pxs))
 
 
 def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
