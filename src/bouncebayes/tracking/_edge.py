@@ -436,8 +436,8 @@ def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
     r, sigma, exposure, az, el = (float(x) for x in q)
     res, jac, ok = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
                           px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight,
-                          px.kappa, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]), float(zt[1] - zt[0]), gt, _nodes(),
-                          RIM_ORDER, want_jac)
+                          px.kappa, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]),
+                          float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER, want_jac)
     if not ok:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
     return res, jac
@@ -613,7 +613,8 @@ def _every_other(px: _Pixels) -> _Pixels:
     return px._replace(**half)
 
 
-def _light_start(img, bg, q, velocity, lo, hi, kappa) -> np.ndarray | None:
+def _light_start(img, bg, q, velocity, lo, hi, kappa: np.ndarray | None
+                 ) -> np.ndarray | None:
     """``q`` with the centre, radius, blur and exposure fitted without a shadow, and the
     light's direction the best of ``_START_AZIMUTHS`` x ``_START_ELEVATIONS`` there, or none
     (elevation pi/2) where that is not better by ``SHADOW_MIN_GAIN`` or the blur is above
@@ -654,7 +655,8 @@ def _light_start(img, bg, q, velocity, lo, hi, kappa) -> np.ndarray | None:
     return q_lit
 
 
-def _start(img, bg, centre, velocity, r0: float, kappa) -> np.ndarray | None:
+def _start(img, bg, centre, velocity, r0: float, kappa: np.ndarray | None
+           ) -> np.ndarray | None:
     """The best starting ``(cx, cy, r, sigma, exposure, az, el)`` on a grid of radius and
     blur (centre held, no shadow: the edge model has local minima where a blur trades
     against the shading near the rim)."""
@@ -679,7 +681,8 @@ def _start(img, bg, centre, velocity, r0: float, kappa) -> np.ndarray | None:
     return q_best
 
 
-def _shared_light(args, fits: list[EdgeFit], kappa) -> tuple[float, float]:
+def _shared_light(args, fits: list[EdgeFit], kappa: np.ndarray | None
+                  ) -> tuple[float, float]:
     """The light's direction ``(az, el)`` of the video, of those the first fits found.
 
     The one of the directions of ``fits`` (on the frames ``args``) that fits those frames best
@@ -785,7 +788,8 @@ _FrameInputs = tuple[Sequence[np.ndarray], Sequence[np.ndarray], np.ndarray, np.
 
 
 def _held_fits(args, first: dict[int, EdgeFit | None], r1: float,
-               held: tuple[float, float, float, float], kappa) -> list[EdgeFit | None]:
+               held: tuple[float, float, float, float], kappa: np.ndarray | None
+               ) -> list[EdgeFit | None]:
     """Every frame of ``args`` fitted from radius ``r1`` with the blur, exposure and light
     ``held`` (from its free fit's centre where ``first`` has one; None where that failed: a
     frame the model cannot follow)."""
