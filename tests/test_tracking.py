@@ -198,6 +198,29 @@ def test_surface_line_is_detected_in_the_background(inclination, point):
     assert abs(offset) < 2.0  # the plane's edge, within its 2 px highlight
 
 
+def test_the_detected_surface_is_an_edge_the_ball_does_not_cross():
+    # expected: the plane's edge as drawn (row 80, horizontal). A bright cable across the scene
+    # (a diagonal stripe, longer than the plane's edge and of higher contrast) is the longest
+    # straight edge, and without the ball's track the detector takes it; the ball's path
+    # crosses it, so with the track it cannot be the surface the ball bounces off. (Found on a
+    # rendered H.264 clip, where the wall's texture made a 45-degree "edge" through the path.)
+    rng = np.random.default_rng(4)
+    vv, uu = np.mgrid[:100, :160].astype(float)
+    bg = np.where(vv >= 80.0, 30.0, 60.0)
+    bg[np.abs(vv - (70.0 - 70.0 / 160.0 * uu)) <= 1.0] = 200.0  # the cable
+    bg = np.clip(bg + rng.normal(0.0, 1.0, bg.shape), 0, 255)
+    t = np.linspace(-1.0, 1.0, 41)
+    centres = np.column_stack([60.0 + 50.0 * t, 70.0 - 40.0 * np.abs(t)])  # touches row 80
+    cable = detect_surface(bg)
+    assert cable is not None and cable.angle == pytest.approx(23.6, abs=0.5)  # can fail
+    surface = detect_surface(bg, centres=centres, radius=10.0)
+    assert surface is not None and surface.angle == pytest.approx(0.0, abs=0.2)
+    assert surface.point[1] == pytest.approx(79.5, abs=1.0)  # between the rows 79 and 80
+    # an edge it crosses everywhere: none
+    assert detect_surface(np.where(uu >= 80.0, 30.0, 60.0), centres=centres, radius=10.0) \
+        is None
+
+
 def test_plane_frame_matches_the_rendered_trajectory(clean):
     scene, bounce, frames = clean
     track = track_ball(frames)

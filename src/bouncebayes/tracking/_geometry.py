@@ -130,25 +130,62 @@ class Surface:
         return deg - 180.0 if deg > 90.0 else deg + 180.0 if deg <= -90.0 else deg
 
 
-def detect_surface(background: np.ndarray, *, min_length: float = 0.3) -> Surface | None:
+def detect_surface(background: np.ndarray, *, min_length: float = 0.3,
+                   centres: np.ndarray | None = None, radius: float = math.nan
+                   ) -> Surface | None:
     """The longest straight edge of the background image, refined by a line fit to its edge
     pixels; ``None`` if no straight edge spans ``min_length`` of the frame's width.
 
-    Limits: the surface must be the longest straight edge in view (ruler edges, table edges or
-    the plane's far border can be picked instead: check the overlay, or give the points).
+    With the ball's ``centres`` (px, ``(n, 2)``; NaN rows skipped) and ``radius`` (px), only
+    an edge the ball bounces off can be the surface: one with every centre on the same side of
+    it, at least half a radius away (the ball does not pass through the surface). The longest
+    such edge; where the strongest edges (Canny's thresholds at the 98th percentile of the
+    gradient, the image smoothed by 1.5 px) give none, again with fainter ones (the 90th), then
+    both on the image smoothed by 3 px: a soft surface edge under a textured wall, smeared by
+    a codec (a rendered H.264 clip: the wall's texture made a 45-degree "edge" through the
+    ball's path; the surface, a ramp of 22 grey levels over ~6 px, was found smoothed by 3 px).
+
+    Limits: the surface must be the longest straight edge in view that the ball does not cross
+    (ruler edges, table edges or the plane's far border can be picked instead: check the
+    overlay, or give the points).
     """
     img = np.clip(np.asarray(background, dtype=np.float32), 0, 255).astype(np.uint8)
-    smooth = cv2.GaussianBlur(img, (0, 0), 1.5)
-    grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
-    high = float(np.percentile(grad, 98))
-    edges = cv2.Canny(smooth, 0.5 * high, high)
-    h, w = img.shape
-    lines = cv2.HoughLinesP(edges, 1, np.pi / 720, threshold=int(0.15 * w),
-                            minLineLength=min_length * w, maxLineGap=6)
-    if lines is None:
-        return None
-    longest = max(lines.reshape(-1, 4), key=lambda s: math.dist(s[:2], s[2:]))
-    x1, y1, x2, y2 = (float(v) for v in longest)
+    w = img.shape[1]
+    ball = None if centres is None else np.asarray(centres, dtype=float).reshape(-1, 2)
+    if ball is not None:
+        ball = ball[np.isfinite(ball).all(axis=1)]
+    tries = ((1.5, 98.0),) if ball is None else ((1.5, 98.0), (1.5, 90.0), (3.0, 98.0),
+                                                 (3.0, 90.0))
+    for blur, level in tries:
+        smooth = cv2.GaussianBlur(img, (0, 0), blur)
+        grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0),
+                        cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+        high = float(np.percentile(grad, level))
+        edges = cv2.Canny(smooth, 0.5 * high, high)
+        lines = cv2.HoughLinesP(edges, 1, np.pi / 720, threshold=int(0.15 * w),
+                                minLineLength=min_length * w, maxLineGap=6)
+        segments = [] if lines is None else [tuple(float(v) for v in s)
+                                             for s in lines.reshape(-1, 4)]
+        if ball is not None:
+            segments = [s for s in segments if _beside(s, ball, radius)]
+        if segments:
+            return _refined(max(segments, key=lambda s: math.dist(s[:2], s[2:])), edges)
+    return None
+
+
+def _beside(segment, centres: np.ndarray, radius: float) -> bool:
+    """Whether every one of ``centres`` lies on the same side of the line through
+    ``segment = (x1, y1, x2, y2)``, at least half of ``radius`` (px) from it."""
+    x1, y1, x2, y2 = segment
+    length = math.dist((x1, y1), (x2, y2))
+    side = ((centres[:, 0] - x1) * (y2 - y1) - (centres[:, 1] - y1) * (x2 - x1)) / length
+    margin = 0.5 * radius if math.isfinite(radius) else 0.0
+    return len(side) == 0 or bool(np.all(side > margin) or np.all(side < -margin))
+
+
+def _refined(segment, edges: np.ndarray) -> Surface:
+    """The line through ``segment`` fitted (Huber) to the edge pixels within 2 px of it."""
+    x1, y1, x2, y2 = segment
     direction = np.array([x2 - x1, y2 - y1]) / math.dist((x1, y1), (x2, y2))
     vs, us = np.nonzero(edges)
     dist = (us - x1) * direction[1] - (vs - y1) * direction[0]

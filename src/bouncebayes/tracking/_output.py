@@ -221,11 +221,13 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         calibration = Calibration.from_track(diameter, track, source.jpeg_quality,
                                              source.bits_per_pixel)
     if surface is None:
-        surface = detect_surface(track.background)
+        surface = detect_surface(track.background, centres=track.centre[track.trusted],
+                                 radius=track.ball_radius)
         if surface is None:
             raise InputFileError(source.path, "no surface line detected in the background (it "
-                                 "must be the longest straight edge, spanning 30% of the "
-                                 "width): give two points on it with --surface X1,Y1,X2,Y2")
+                                 "must be the longest straight edge that the ball does not "
+                                 "cross, spanning 30% of the width): give two points on it "
+                                 "with --surface X1,Y1,X2,Y2")
     trajectory = to_plane_frame(track, calibration, surface, source.fps)
     return TrackedVideo(source=source, track=track, calibration=calibration, surface=surface,
                         trajectory=trajectory)
