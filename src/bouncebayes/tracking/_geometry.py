@@ -176,20 +176,22 @@ def detect_surface(background: np.ndarray, *, min_length: float = 0.3,
 def _beside(segment, centres: np.ndarray, radius: float) -> bool:
     """Whether every one of ``centres`` lies on the same side of the line through
     ``segment = (x1, y1, x2, y2)``, at least half of ``radius`` (px) from it."""
-    x1, y1, x2, y2 = segment
-    length = math.dist((x1, y1), (x2, y2))
-    side = ((centres[:, 0] - x1) * (y2 - y1) - (centres[:, 1] - y1) * (x2 - x1)) / length
+    side = _across(segment, centres[:, 0], centres[:, 1])
     margin = 0.5 * radius if math.isfinite(radius) else 0.0
     return len(side) == 0 or bool(np.all(side > margin) or np.all(side < -margin))
 
 
+def _across(segment, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Signed distance (px) of the points ``(u, v)`` from the line through ``segment = (x1,
+    y1, x2, y2)``."""
+    x1, y1, x2, y2 = segment
+    return ((u - x1) * (y2 - y1) - (v - y1) * (x2 - x1)) / math.dist((x1, y1), (x2, y2))
+
+
 def _refined(segment, edges: np.ndarray) -> Surface:
     """The line through ``segment`` fitted (Huber) to the edge pixels within 2 px of it."""
-    x1, y1, x2, y2 = segment
-    direction = np.array([x2 - x1, y2 - y1]) / math.dist((x1, y1), (x2, y2))
     vs, us = np.nonzero(edges)
-    dist = (us - x1) * direction[1] - (vs - y1) * direction[0]
-    near = np.abs(dist) <= 2.0
+    near = np.abs(_across(segment, us, vs)) <= 2.0
     pts = np.column_stack([us[near], vs[near]]).astype(np.float32)
     dx, dy, px, py = cv2.fitLine(pts, cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
     return Surface(point=(float(px), float(py)), direction=(float(dx), float(dy)),

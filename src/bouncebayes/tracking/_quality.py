@@ -149,13 +149,13 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     # MAX_FRAMES_BLURRED in all, spread, those not picked already
     extra = np.setdiff1d(cand[spread(len(cand), MAX_FRAMES_BLURRED)], pick)
 
-    def inputs(idx: np.ndarray) -> _FrameInputs:
-        bg = clean(centre[idx])[0]
+    def inputs(idx: np.ndarray, bg: np.ndarray) -> _FrameInputs:
         return ([frames[k] for k in idx], [gains[k] * bg for k in idx], centre[idx],
                 (centre[idx + 1] - centre[idx - 1]) / 2.0)
 
-    kappa = clean(centre[pick])[1]  # one map, updated in place as more() asks for frames
-    fit = fit_radius(*inputs(pick), r0, more=lambda: inputs(extra), kappa=kappa)
+    bg, kappa = clean(centre[pick])  # kappa: one map, updated in place as more() asks
+    fit = fit_radius(*inputs(pick, bg), r0, more=lambda: inputs(extra, clean(centre[extra])[0]),
+                     kappa=kappa)
     if fit is None:
         return None, (0.0, 0.0)
     pick = np.concatenate([pick, extra])
