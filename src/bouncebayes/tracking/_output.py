@@ -299,7 +299,7 @@ def compression_warning(source: VideoSource) -> str | None:
                 f"codec's quantiser is not read; below {LOW_BITS:g} it smears and rings at the "
                 "ball's edge): the stated uncertainty of the --ball-diameter scale allows "
                 f"{compression_px(None, bits):.2g} px of the ball's radius for it (rendered balls "
-                "came out up to 0.8-3.7 px off below 0.1 bits per pixel), and the centres may be "
+                "came out up to 0.6-2.0 px off below 0.1 bits per pixel), and the centres may be "
                 "off by more than stated; give --reference, and record with less compression "
                 "(a higher bit rate, or MJPEG or lossless frames) if you can")
     if q is None or q >= STRONG_COMPRESSION:
