@@ -33,7 +33,8 @@ blurred::
   without them; held at the first fits' direction that fits their frames best together,
   one lamp per video). Balls under ``SHADOW_MIN_RADIUS`` get none, nor frames where it
   lowers the cost by less than ``SHADOW_MIN_GAIN`` residual variances or the blur exceeds
-  ``SHADOW_MAX_BLUR`` of the radius, nor videos where most first fits have none;
+  ``SHADOW_MAX_BLUR`` of the radius, nor videos where most first fits have none (but a
+  blurred ball's frames fitted together look for it again, :func:`joint_radius`);
 - the local background level on each side (``o``): a shadow, flicker.
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
@@ -49,8 +50,8 @@ median of a few dozen frames and carries their noise; :func:`._edge_kernel.varpr
 :func:`fit_radius` fits 5 frames alone, then 9 again with the blur and exposure held at their
 medians (shared by the video: one lens, one exposure), and takes the median radius; 13 and 25
 where the ball is blurred by ``BLURRED`` of its radius or more, and there the radius is the one
-that fits those frames together, one shading for all (:func:`joint_radius`). Written
-here because no library fits a blurred, shaded disk.
+that fits those frames together, one shading, blur and light for all (:func:`joint_radius`).
+Written here because no library fits a blurred, shaded disk.
 """
 
 from __future__ import annotations
@@ -108,6 +109,12 @@ SHADOW_MIN_GAIN = 15.0
 # blurred step (radius 10 px, blur 1.5 px, plain wall: side-lit -1.35 -> +2.47 %, glossy -1.08
 # -> -2.92 %; at 15 px, blur 1.5 px, fitted ~0.10 r, it helped: +2.5 -> +1.6 %, +3.6 -> +1.4 %)
 SHADOW_MAX_BLUR = 0.125
+# ... and on the frames fitted together (joint_radius), where the shadow's columns lower their
+# cost by JOINT_SHADOW_MIN_FALL of it or more. Measured (25 frames, radius 10 px, blur 0.7 and
+# 1.5 px; benchmarks/tracking_accuracy.py's scenes, seeds 10-12): side-lit and glossy balls
+# 0.9-7.6 %; a dark ball 0.0-0.2 % and a ball lit from the camera 0.06-0.43 %, where a light
+# so found moved the radius by up to -0.7 %
+JOINT_SHADOW_MIN_FALL = 0.006
 # The wall's occlusion term (._edge_kernel._row: the ball hides the wall before the lens blurs
 # it, so the image is B (1 - S) - k grad B . grad S to first order in the wall's gradient) only
 # for a ball of at least OCCLUSION_MIN_RADIUS px (the fits' current radius). Measured over
@@ -721,24 +728,21 @@ def _stack(pxs: Sequence[_Pixels]) -> _Pixels:
     return every._replace(frame=frame, n_frames=len(pxs))
 
 
-def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
-                 kappa: np.ndarray | None) -> tuple[float, np.ndarray] | None:
-    """The radius that fits the frames ``args`` (image, background, centre, velocity) best
-    together, and their centres ``(n, 2)``: one radius and one shading of the ball (its linear
-    coefficients) for all, the blur, exposure and light ``held``, each frame its own centre
-    and local background levels; from the frames' own fits ``fits`` (their centres, the
-    median radius; each frame's pixels and robust weights as its fit's). None where the fit
-    fails.
+class JointFit(NamedTuple):
+    """The frames fitted together (:func:`joint_radius`): the radius (px), each frame's
+    centre ``(n, 2)`` (px), the blur (px) and the light's direction ``(az, el)`` (radians;
+    elevation pi/2: no shadow) that fit them best."""
 
-    Why: a frame alone hardly holds the radius where the blur is a large part of it (the
-    shading's limb and level trade against a blurred step at another radius), and what it
-    holds is biased by the noise: radius 10 px, blur 1.5 px (held at the truth), noise 3 grey
-    levels, exact background: the frames' radii scatter by 3 % and their median sits +1.4 %
-    out (a uniform dark disk; +3.7 % on benchmarks/tracking_accuracy.py's dark ball on a plain
-    wall, seed 11); the ball's shading is the same in every frame (one lamp, far away), and
-    shared it takes that freedom away (docs/tracking.md §3)."""
-    from scipy.optimize import least_squares
+    radius: float
+    centres: np.ndarray
+    sigma: float
+    light: tuple[float, float]
 
+
+def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
+                  kappa: np.ndarray | None) -> _Pixels | None:
+    """The pixels of every frame of ``args`` as one set, each with the robust weights of its
+    own fit ``fits`` under ``held``; None where a frame's cannot be had."""
     sigma, exposure, az, el = held
     pxs = []
     for (img, bg, _, v), f in zip(args, fits, strict=True):
@@ -752,35 +756,141 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
             return None
         scale = 1.4826 * float(np.median(np.abs(res))) + 1e-9
         pxs.append(px._replace(weight=(np.abs(res) <= 4.0 * scale).astype(np.float64)))
-    every = _stack(pxs)
-    n = len(pxs)
-    r0 = float(np.median([f.r for f in fits]))
-    c0 = np.array([[f.cx, f.cy] for f in fits])
-    free = np.array([1, 1, 1, 0, 0, 0, 0], bool)  # each frame's centre, the radius
+    return _stack(pxs)
+
+
+def _at_centres(every: _Pixels, c: np.ndarray) -> _Pixels:
+    """``every`` with frame ``k``'s pixels centred on ``c[k]``."""
+    return every._replace(cx=c[every.frame, 0], cy=c[every.frame, 1])
+
+
+# the entries of (r, sigma, exposure, az, el) a joint fit may free
+_JOINT_NAMES = ("r", "sigma", "exposure", "az", "el")
+
+
+def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str, ...],
+                 centres: bool = True, ftol: float = 1e-8, xtol: float = 1e-6, max_nfev: int = 50
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The frames of ``every`` fitted together from ``q = (r, sigma, exposure, az, el)`` and
+    their centres ``c`` ``(n, 2)``: the entries of ``q`` ``names``d and every frame's centre
+    free (SciPy's least_squares on the compiled model and its Jacobian, whose columns are each
+    frame's ``(cx, cy)``, then the free entries of ``q`` in order). The best ``q`` and centres;
+    None where the fit fails."""
+    from scipy.optimize import least_squares
+
+    n = every.n_frames
+    idx = [_JOINT_NAMES.index(name) for name in names]
+    free = np.zeros(7, bool)
+    free[:2] = centres
+    free[[2 + i for i in idx]] = True
+    p = len(idx)
+    held = _at_centres(every, c)
 
     def at(x: np.ndarray) -> tuple[np.ndarray, _Pixels]:
-        c = x[1:].reshape(n, 2)
-        return (np.array([x[0], sigma, exposure, az, el]),
-                every._replace(cx=c[every.frame, 0], cy=c[every.frame, 1]))
+        qx = q.copy()
+        qx[idx] = x[:p]
+        return qx, _at_centres(every, x[p:].reshape(n, 2)) if centres else held
 
     def fun(x: np.ndarray) -> np.ndarray:
         return _evaluate(*at(x), _NONE_FREE, False)[0]
 
     def jac(x: np.ndarray) -> np.ndarray:
-        jc = _evaluate(*at(x), free, True)[1]  # each frame's (cx, cy), then the radius
-        return np.hstack([jc[:, -1:], jc[:, :-1]])
+        jc = _evaluate(*at(x), free, True)[1]
+        return np.hstack([jc[:, 2 * n:], jc[:, :2 * n]]) if centres else jc
 
-    x0 = np.concatenate([[r0], c0.ravel()])
-    lo = np.concatenate([[0.75 * r0], c0.ravel() - 2.0])
-    hi = np.concatenate([[1.3 * r0], c0.ravel() + 2.0])
+    lo_q = np.array([0.75 * q[0], 0.5 * q[1], 0.0, q[3] - math.pi, 0.02])
+    hi_q = np.array([1.3 * q[0], 2.0 * q[1] + 0.1, 1.0, q[3] + math.pi, 1.5])
+    lo, hi, x0 = lo_q[idx], hi_q[idx], q[idx]
+    if centres:
+        lo = np.concatenate([lo, c.ravel() - 2.0])
+        hi = np.concatenate([hi, c.ravel() + 2.0])
+        x0 = np.concatenate([x0, c.ravel()])
     try:
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), x_scale="jac", xtol=1e-6,
-                            ftol=1e-8, max_nfev=50)
+        sol = least_squares(fun, np.clip(x0, lo + 1e-9, hi - 1e-9), jac=jac, bounds=(lo, hi),
+                            x_scale="jac", xtol=xtol, ftol=ftol, max_nfev=max_nfev)
     except np.linalg.LinAlgError:
         return None
     if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
         return None
-    return float(sol.x[0]), sol.x[1:].reshape(n, 2)
+    qx, _ = at(sol.x)
+    return qx, sol.x[p:].reshape(n, 2) if centres else c
+
+
+# the light's directions tried on the frames together (radians): 10 degrees apart in the
+# azimuth (the joint cost's minima are narrower than a frame's)
+_JOINT_AZIMUTHS = np.radians(np.arange(-180.0, 180.0, 10.0))
+_JOINT_ELEVATIONS = (0.2, 0.45, 0.7, 0.95, 1.2)
+
+
+def _joint_light(every: _Pixels, q: np.ndarray, c: np.ndarray) -> tuple[float, float] | None:
+    """The light's direction ``(az, el)`` that fits the frames of ``every`` best together at
+    ``q`` and centres ``c``, of a grid; None where it lowers their cost by less than
+    ``JOINT_SHADOW_MIN_FALL`` of it (no shadow to be seen).
+
+    Every frame and pixel scored: on every third frame and every other pixel (a sixth of the
+    CPU time) the grid missed the light by 80-180 degrees on three of six rendered balls,
+    radius 10 px, blur 1.5 px, plain wall."""
+    px = _at_centres(every, c)
+
+    def cost(az: float, el: float) -> float:
+        try:
+            res = _evaluate(np.array([q[0], q[1], q[2], az, el]), px, _NONE_FREE, False)[0]
+        except np.linalg.LinAlgError:
+            return math.inf
+        return float(res @ res)
+
+    none = cost(0.0, _NO_SHADOW)
+    best, light = min((cost(az, el), (float(az), el))
+                      for az in _JOINT_AZIMUTHS for el in _JOINT_ELEVATIONS)
+    if not none - best > JOINT_SHADOW_MIN_FALL * best:
+        return None
+    return light
+
+
+def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
+                 kappa: np.ndarray | None) -> JointFit | None:
+    """The radius that fits the frames ``args`` (image, background, centre, velocity) best
+    together: one radius, blur, light and shading of the ball (its linear coefficients) for
+    all, the exposure ``held``, each frame its own centre and local background levels; from
+    the frames' own fits ``fits`` (their centres, the median radius; each frame's pixels and
+    robust weights as its fit's) under ``held = (sigma, exposure, az, el)``. None where the
+    fit fails.
+
+    First the radius alone, the rest held; then, for a ball of ``SHADOW_MIN_RADIUS`` or more,
+    the blur and the light's direction free with it (the light from the held one, or where
+    that has none the best of a grid, :func:`_joint_light`).
+
+    Why: a frame alone hardly holds the radius where the blur is a large part of it (the
+    shading's limb and level trade against a blurred step at another radius), and what it
+    holds is biased by the noise: radius 10 px, blur 1.5 px (held at the truth), noise 3 grey
+    levels, exact background: the frames' radii scatter by 3 % and their median sits +1.4 %
+    out (a uniform dark disk; +3.7 % on benchmarks/tracking_accuracy.py's dark ball on a plain
+    wall, seed 11); the ball's shading is the same in every frame (one lamp, far away), and
+    shared it takes that freedom away. Frames alone do not find the light there (its shadow
+    is within a blur or two of the rim, ``SHADOW_MAX_BLUR``), together they do, and the blur
+    the frames' medians held is off by up to 0.1 px, a -2 / +2 % error in the radius
+    (docs/tracking.md §3)."""
+    every = _joint_pixels(args, fits, held, kappa)
+    if every is None:
+        return None
+    q = np.array([float(np.median([f.r for f in fits])), *held])
+    first = _joint_solve(every, q, np.array([[f.cx, f.cy] for f in fits]), ("r",))
+    if first is None:
+        return None
+    q, c = first
+    out = JointFit(float(q[0]), c, float(q[1]), (float(q[3]), float(q[4])))
+    if q[0] < SHADOW_MIN_RADIUS:
+        return out
+    if q[4] >= _NO_SHADOW:
+        light = _joint_light(every, q, c)
+        if light is None:  # no shadow: the blur as held (freed, it only scatters the radius)
+            return out
+        q[3:] = light
+    second = _joint_solve(every, q, c, ("r", "sigma", "az", "el"))
+    if second is None:
+        return out
+    q, c = second
+    return JointFit(float(q[0]), c, float(q[1]), (float(q[3]), float(q[4])))
 
 
 # frames, backgrounds, centres (px) and velocities (px per frame) of the frames fitted
@@ -817,7 +927,7 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     same four sequences; ``RadiusFit.frames`` then counts them after the frames given), up to
     ``FIRST_FRAMES_BLURRED`` in all are fitted alone and every frame with the blur held, and
     the radius and centres are those of the frames fitted together (:func:`joint_radius`; the
-    standard error stays the median's).
+    standard error stays the median's; the blur and light then the joint fit's).
     ``kappa``: the backgrounds' variance in units of the frames' noise variance, one map for
     the video (:func:`fit_edge`). None if fewer than 3 frames could be fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
@@ -861,7 +971,8 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
         # blurred for its size: the frames together (the SE stays the frames' scatter's)
         joint = joint_radius([args[i] for i in used], fits, held, kappa)
         if joint is not None:
-            med, centres = joint
+            med, centres = joint.radius, joint.centres
+            held = (joint.sigma, held[1], *joint.light)
     return RadiusFit(med, se, held[0], held[1], float(np.median([f.rms for f in fits])),
                      tuple(used), centres, light=held[2:])
 
