@@ -768,52 +768,51 @@ def _at_centres(every: _Pixels, c: np.ndarray) -> _Pixels:
 _JOINT_NAMES = ("r", "sigma", "exposure", "az", "el")
 
 
-def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str, ...],
-                 centres: bool = True, ftol: float = 1e-8, xtol: float = 1e-6, max_nfev: int = 50
+def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str, ...]
                  ) -> tuple[np.ndarray, np.ndarray] | None:
     """The frames of ``every`` fitted together from ``q = (r, sigma, exposure, az, el)`` and
     their centres ``c`` ``(n, 2)``: the entries of ``q`` ``names``d and every frame's centre
     free (SciPy's least_squares on the compiled model and its Jacobian, whose columns are each
     frame's ``(cx, cy)``, then the free entries of ``q`` in order). The best ``q`` and centres;
-    None where the fit fails."""
+    None where the fit fails.
+
+    Each frame's centre is always free: held at the first joint fit's while the blur and light
+    were freed, the sweep's radii moved by up to 4 %."""
     from scipy.optimize import least_squares
 
     n = every.n_frames
     idx = [_JOINT_NAMES.index(name) for name in names]
     free = np.zeros(7, bool)
-    free[:2] = centres
+    free[:2] = True
     free[[2 + i for i in idx]] = True
     p = len(idx)
-    held = _at_centres(every, c)
 
     def at(x: np.ndarray) -> tuple[np.ndarray, _Pixels]:
         qx = q.copy()
         qx[idx] = x[:p]
-        return qx, _at_centres(every, x[p:].reshape(n, 2)) if centres else held
+        return qx, _at_centres(every, x[p:].reshape(n, 2))
 
     def fun(x: np.ndarray) -> np.ndarray:
         return _evaluate(*at(x), _NONE_FREE, False)[0]
 
     def jac(x: np.ndarray) -> np.ndarray:
         jc = _evaluate(*at(x), free, True)[1]
-        return np.hstack([jc[:, 2 * n:], jc[:, :2 * n]]) if centres else jc
+        return np.hstack([jc[:, 2 * n:], jc[:, :2 * n]])
 
     lo_q = np.array([0.75 * q[0], 0.5 * q[1], 0.0, q[3] - math.pi, 0.02])
     hi_q = np.array([1.3 * q[0], 2.0 * q[1] + 0.1, 1.0, q[3] + math.pi, 1.5])
-    lo, hi, x0 = lo_q[idx], hi_q[idx], q[idx]
-    if centres:
-        lo = np.concatenate([lo, c.ravel() - 2.0])
-        hi = np.concatenate([hi, c.ravel() + 2.0])
-        x0 = np.concatenate([x0, c.ravel()])
+    lo = np.concatenate([lo_q[idx], c.ravel() - 2.0])
+    hi = np.concatenate([hi_q[idx], c.ravel() + 2.0])
+    x0 = np.clip(np.concatenate([q[idx], c.ravel()]), lo + 1e-9, hi - 1e-9)
     try:
-        sol = least_squares(fun, np.clip(x0, lo + 1e-9, hi - 1e-9), jac=jac, bounds=(lo, hi),
-                            x_scale="jac", xtol=xtol, ftol=ftol, max_nfev=max_nfev)
+        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), x_scale="jac", xtol=1e-6,
+                            ftol=1e-8, max_nfev=50)
     except np.linalg.LinAlgError:
         return None
     if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
         return None
     qx, _ = at(sol.x)
-    return qx, sol.x[p:].reshape(n, 2) if centres else c
+    return qx, sol.x[p:].reshape(n, 2)
 
 
 # the light's directions tried on the frames together (radians): 10 degrees apart in the
@@ -869,7 +868,8 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
     shared it takes that freedom away. Frames alone do not find the light there (its shadow
     is within a blur or two of the rim, ``SHADOW_MAX_BLUR``), together they do, and the blur
     the frames' medians held is off by up to 0.1 px, a -2 / +2 % error in the radius
-    (docs/tracking.md §3)."""
+    (docs/tracking.md §1, *the frames together*, *the light and the blur of the frames
+    together*)."""
     every = _joint_pixels(args, fits, held, kappa)
     if every is None:
         return None
