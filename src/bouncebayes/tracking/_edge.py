@@ -838,9 +838,19 @@ def _joint_light(every: _Pixels, q: np.ndarray, c: np.ndarray) -> tuple[float, f
             return math.inf
         return float(res @ res)
 
+    # every third azimuth and every other elevation first (a fifth of the grid): where those
+    # lower the cost by less than half JOINT_SHADOW_MIN_FALL there is no shadow and the rest
+    # is not scored (the sweep's scenes: shaded balls 0.78-2.6 % there, 0.94-2.9 % on the
+    # whole grid; dark balls and balls lit from the camera at most 0.19 and 0.21 %)
+    coarse = [(float(az), el) for i, az in enumerate(_JOINT_AZIMUTHS) if i % 3 == 0
+              for j, el in enumerate(_JOINT_ELEVATIONS) if j % 2 == 0]
     none = cost(0.0, _NO_SHADOW)
-    best, light = min((cost(az, el), (float(az), el))
-                      for az in _JOINT_AZIMUTHS for el in _JOINT_ELEVATIONS)
+    best, light = min((cost(az, el), (az, el)) for az, el in coarse)
+    if not none - best > 0.5 * JOINT_SHADOW_MIN_FALL * best:
+        return None
+    best, light = min([(best, light)] + [
+        (cost(float(az), el), (float(az), el)) for az in _JOINT_AZIMUTHS
+        for el in _JOINT_ELEVATIONS if (float(az), el) not in coarse])
     if not none - best > JOINT_SHADOW_MIN_FALL * best:
         return None
     return light
