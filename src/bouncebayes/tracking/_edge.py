@@ -111,9 +111,9 @@ SHADOW_MIN_GAIN = 15.0
 SHADOW_MAX_BLUR = 0.125
 # ... and on the frames fitted together (joint_radius), where the shadow's columns lower their
 # cost by JOINT_SHADOW_MIN_FALL of it or more. Measured (25 frames, radius 10 px, blur 0.7 and
-# 1.5 px; benchmarks/tracking_accuracy.py's scenes, seeds 10-12): side-lit and glossy balls
-# 0.9-7.6 %; a dark ball 0.0-0.2 % and a ball lit from the camera 0.06-0.43 %, where a light
-# so found moved the radius by up to -0.7 %
+# 1.5 px; benchmarks/tracking_accuracy.py's scenes, seeds 10-12, and those lit from the camera,
+# seeds 10-11): side-lit and glossy balls 0.9-7.6 %; a dark ball 0.0-0.2 % and a ball lit from
+# the camera 0.04-0.21 %, where a light so found moved the radius by up to -0.7 %
 JOINT_SHADOW_MIN_FALL = 0.006
 # The wall's occlusion term (._edge_kernel._row: the ball hides the wall before the lens blurs
 # it, so the image is B (1 - S) - k grad B . grad S to first order in the wall's gradient) only
