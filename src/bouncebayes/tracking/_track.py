@@ -174,10 +174,12 @@ def _ball_free_background(frames, bg64, gains, centre, radius, config):
     two frames, the background model as it is."""
     from . import _fast
 
-    plain = np.full(bg64.shape, median_variance(min(config.background_frames, len(frames))))
+    # each pixel's count of frames in its median: the background model's own until recomputed
+    count = np.full(bg64.shape, float(min(config.background_frames, len(frames))))
+    kappa = median_variance(count)  # kept: updated in place as pixels are computed
     found = ~np.isnan(centre[:, 0])
     if found.sum() < 2:
-        return lambda centres: (bg64, plain)
+        return lambda centres: (bg64, kappa)
     r = float(np.nanmedian(radius))
     step = np.hypot(*np.diff(centre[found], axis=0).T)
     reach = 1.25 * r + 6.0 + 0.5 * float(np.max(step, initial=0.0))
@@ -185,10 +187,7 @@ def _ball_free_background(frames, bg64, gains, centre, radius, config):
     frames = np.ascontiguousarray(frames)
     at = np.ascontiguousarray(centre[idx])
     half = 1.25 * r + 12.0
-    # kept: each pixel computed once
-    out, done = bg64.copy(), np.zeros(bg64.shape, bool)
-    count = np.full(bg64.shape, float(min(config.background_frames, len(frames))))
-    kappa = median_variance(count)  # kept too: updated in place as pixels are computed
+    out, done = bg64.copy(), np.zeros(bg64.shape, bool)  # kept: each pixel computed once
 
     def clean(centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         around = np.ascontiguousarray(np.asarray(centres, np.float64).reshape(-1, 2))
@@ -196,8 +195,6 @@ def _ball_free_background(frames, bg64, gains, centre, radius, config):
                                    around, half, TILE)
         kappa[:] = median_variance(count)
         return out, kappa
-
-    return clean
 
     return clean
 
