@@ -51,6 +51,12 @@ median of a few dozen frames and carries their noise; :func:`._edge_kernel.varpr
 medians (shared by the video: one lens, one exposure), and takes the median radius; 13 and 25
 where the ball is blurred by ``BLURRED`` of its radius or more, and there the radius is the one
 that fits those frames together, one shading, blur and light for all (:func:`joint_radius`).
+Where the frames are fitted together (:func:`joint_radius`) the columns are blurred in two
+dimensions instead (``exact``, :func:`._edge_kernel._hankel`): the blur of ``g(rho) cos(m t)``
+by quadrature of its Bessel kernel, which the closed forms above approximate (a blur along the
+radius only, and products of blurred factors for ``n_x n_z``, ``n_y n_z``); they were off by
+up to 13 % of ``n_x n_z``'s largest value and 40 % of the rim's fourth harmonic's under a
+1.5 px blur of a 10 px ball, and a limb-darkened ball's radius by -0.8 % (noise-free).
 Written here because no library fits a blurred, shaded disk.
 """
 
@@ -110,11 +116,19 @@ SHADOW_MIN_GAIN = 15.0
 # -> -2.92 %; at 15 px, blur 1.5 px, fitted ~0.10 r, it helped: +2.5 -> +1.6 %, +3.6 -> +1.4 %)
 SHADOW_MAX_BLUR = 0.125
 # ... and on the frames fitted together (joint_radius), where the shadow's columns lower their
-# cost by JOINT_SHADOW_MIN_FALL of it or more. Measured (25 frames, radius 10 px, blur 0.7 and
-# 1.5 px; benchmarks/tracking_accuracy.py's scenes, seeds 10-12, and those lit from the camera,
-# seeds 10-11): side-lit and glossy balls 0.9-7.6 %; a dark ball 0.0-0.2 % and a ball lit from
-# the camera 0.04-0.21 %, where a light so found moved the radius by up to -0.7 %
-JOINT_SHADOW_MIN_FALL = 0.006
+# cost by JOINT_SHADOW_MIN_FALL of it or more (the exact columns, the grid of _joint_light).
+# Measured (25 frames, radius 10 px; benchmarks/tracking_accuracy.py's scenes, seeds 10-12,
+# and those lit from the camera, seeds 10-11): side-lit and glossy balls under a 1.5 px blur
+# 0.25-1.6 %; a ball lit from the camera 0.04-0.19 % (a light so found moved the radius by up
+# to -0.5 %), a dark ball 0.03-0.06 % under a 1.5 px blur and 0.05-0.19 % under 0.7 px (its
+# weak shading does have a light). The columns blurred along the radius only gave all of them
+# more (shaded 0.9-7.6 %, lit from the camera up to 0.21 %) and took the threshold 0.6 %
+JOINT_SHADOW_MIN_FALL = 0.0022
+# The joint fit's last stage leaves out the pixels within SATURATED_REACH blurs of a saturated
+# one (joint_radius, where it is measured) ...
+SATURATED_REACH = 3.0
+# ... and its first stage starts from these radii times the frames' median (joint_radius)
+JOINT_STARTS = (0.96, 1.0, 1.04)
 # The wall's occlusion term (._edge_kernel._row: the ball hides the wall before the lens blurs
 # it, so the image is B (1 - S) - k grad B . grad S to first order in the wall's gradient) only
 # for a ball of at least OCCLUSION_MIN_RADIUS px (the fits' current radius). Measured over
@@ -334,6 +348,75 @@ def _sqrt_table() -> tuple[np.ndarray, np.ndarray]:
     return z, g
 
 
+@functools.lru_cache(maxsize=1)
+def _bessel_table() -> tuple[np.ndarray, float]:
+    """``I_m(a) exp(-a)`` for ``m = 0 .. RIM_ORDER`` on ``a = 0, 0.005, .., 40`` (SciPy's
+    ``ive``), and the spacing: the exact columns' kernels (:func:`._edge_kernel._hankel`;
+    linearly interpolated to within 3e-6, the large-argument series beyond)."""
+    from scipy.special import ive
+
+    da = 0.005
+    a = np.arange(8001) * da
+    return np.stack([ive(m, a) for m in range(RIM_ORDER + 1)]), da
+
+
+def _ive_numpy(a: np.ndarray) -> np.ndarray:
+    """``I_m(a) exp(-a)`` ``(RIM_ORDER + 1, n)`` as :func:`._edge_kernel._ive` computes it."""
+    etab, da = _bessel_table()
+    x = a / da
+    inside = x < etab.shape[1] - 1
+    j = np.minimum(x, etab.shape[1] - 2).astype(np.intp)
+    f = x - j
+    table = etab[:, j] * (1.0 - f) + etab[:, j + 1] * f
+    big = np.maximum(a, 1.0)
+    inv = 1.0 / (8.0 * big)
+    series = [(1.0 + inv * (1.0 + inv * (4.5 + inv * (37.5 + inv * 459.375)))),
+              (1.0 - inv * (3.0 + inv * (7.5 + inv * (52.5 + inv * 590.625))))]
+    series = [t / np.sqrt(2 * math.pi * big) for t in series]
+    for m in range(1, RIM_ORDER):
+        series.append(series[m - 1] - 2.0 * m / big * series[m])
+    return np.where(inside, table, np.array(series))
+
+
+@functools.lru_cache(maxsize=1)
+def _hankel_nodes() -> np.ndarray:
+    """The exact columns' quadrature nodes (:func:`._edge_kernel.hankel_nodes`)."""
+    from ._edge_kernel import hankel_nodes
+
+    return hankel_nodes()
+
+
+def _hankel_numpy(rho: np.ndarray, s: np.ndarray, r: float) -> np.ndarray:
+    """The exact columns' radial factors ``(n, 6 + RIM_ORDER - 1)`` at ``rho`` (blur ``s``):
+    :func:`._edge_kernel._hankel`'s values in NumPy."""
+    from ._edge_kernel import _HANKEL_CUT, _HANKEL_SPLIT, _NODES_IN, _PROFILE_M
+
+    nodes = _hankel_nodes()
+    lo = np.maximum(rho - _HANKEL_CUT * s, 0.0)
+    hi = np.minimum(rho + _HANKEL_CUT * s, r)
+    live = hi > lo
+    mid = np.where(hi < r, hi, np.maximum(lo, r - _HANKEL_SPLIT * s))
+    half_in = 0.5 * (mid - lo)[:, None]
+    rp_in = lo[:, None] + half_in * (1.0 + nodes[0, :_NODES_IN])
+    jw_in = np.where(mid > lo, 1.0, 0.0)[:, None] * half_in * nodes[1, :_NODES_IN]
+    half_rim = 0.5 * np.sqrt(np.maximum(r - mid, 0.0))[:, None]
+    w = half_rim * (1.0 + nodes[0, _NODES_IN:])
+    rim = ((hi >= r) & (mid < r))[:, None]
+    rp_rim = r - w * w
+    jw_rim = np.where(rim, 2.0 * w * half_rim * nodes[1, _NODES_IN:], 0.0)
+    rp, jw = np.hstack([rp_in, rp_rim]), np.hstack([jw_in, jw_rim])
+    s2 = (s * s)[:, None]
+    kern = rp / s2 * np.exp(-0.5 * (rho[:, None] - rp) ** 2 / s2) * jw
+    ev = _ive_numpy((rho[:, None] * rp / s2).ravel()).reshape(-1, *rp.shape)
+    x = rp / r
+    root = np.sqrt(np.clip(1.0 - x * x, 0.0, None))
+    profiles = [np.ones_like(x), x, root, x * x, x * root, 1.0 - x * x]
+    orders = list(_PROFILE_M) + list(range(2, RIM_ORDER + 1))
+    profiles += [np.ones_like(x)] * (RIM_ORDER - 1)
+    cols = [(kern * ev[m] * g).sum(1) for m, g in zip(orders, profiles, strict=True)]
+    return np.where(live[:, None], np.column_stack(cols), 0.0)
+
+
 @functools.lru_cache(maxsize=2)
 def _nodes(n: int = SHADOW_NODES) -> np.ndarray:
     """Gauss-Legendre nodes and weights on [-1, 1], ``(2, n)``: the shadow columns'
@@ -366,12 +449,32 @@ def _shadow_numpy(uu, s, r, ct, st, az: float, el: float, n: int) -> np.ndarray:
     return np.where(live[:, None], cols, 0.0)
 
 
-def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
-    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure, az, el)``, and the
-    model's fixed part, ``bg (1 - step)`` and the wall's occlusion term: the NumPy reference
-    of the compiled :func:`._edge_kernel.varpro` (the tests compare them)."""
+def _radial_numpy(u: np.ndarray, s: np.ndarray, r: float) -> tuple[np.ndarray, ...]:
+    """The radial factors blurred along the radius (:func:`._edge_kernel._analytic`) at depth
+    ``u`` and blur ``s``: ``step, qq, nz, q2, nzq`` and ``n_z^2 = step - q2``."""
     from scipy.special import ndtr
 
+    z = u / s
+    dens = np.exp(-0.5 * z * z) / math.sqrt(2 * math.pi)
+    step = ndtr(z)
+    ramp = u * step + s * dens                      # E[(u + e) 1{u + e > 0}]
+    square = (u * u + s * s) * step + u * s * dens  # E[(u + e)^2 1{.}]
+    zt, gt = _sqrt_table()
+    root = np.sqrt(s) * np.interp(z, zt, gt, right=np.nan)
+    root = np.where(np.isnan(root), np.sqrt(np.maximum(u, 0.0)), root)
+    # blurred n_z = sqrt(u (2r - u)) / r, and q = rho / r, q^2 (n_x = q cos t, ...)
+    nz = root * math.sqrt(2.0 / r) * np.sqrt(np.clip(1.0 - u / (2.0 * r), 0.0, 1.0))
+    qq = step - ramp / r
+    q2 = step - 2.0 * ramp / r + square / (r * r)
+    return step, qq, nz, q2, nz * np.clip(1.0 - u / r, 0.0, 1.0), step - q2
+
+
+def _design_numpy(q: np.ndarray, px: _Pixels, exact: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Design matrix ``(n_pix, n_cols)`` at ``q = (r, sigma, exposure, az, el)``, and the
+    model's fixed part, ``bg (1 - step)`` and the wall's occlusion term: the NumPy reference
+    of the compiled :func:`._edge_kernel.varpro` (the tests compare them); ``exact``: its
+    radial factors blurred in two dimensions (:func:`._edge_kernel._hankel`)."""
     r, sigma, exposure, az, el = q
     du, dv = px.u - px.cx, px.v - px.cy
     rho = np.hypot(du, dv)
@@ -384,25 +487,21 @@ def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
     s = np.sqrt(var_r)
     u = r - var_t / (2.0 * r) - rho
     z = u / s
-    step = ndtr(z)
     dens = np.exp(-0.5 * z * z) / math.sqrt(2 * math.pi)
-    ramp = u * step + s * dens                      # E[(u + e) 1{u + e > 0}]
-    square = (u * u + s * s) * step + u * s * dens  # E[(u + e)^2 1{.}]
-    zt, gt = _sqrt_table()
-    root = np.sqrt(s) * np.interp(z, zt, gt, right=np.nan)
-    root = np.where(np.isnan(root), np.sqrt(np.maximum(u, 0.0)), root)
-    # blurred n_z = sqrt(u (2r - u)) / r, and q = rho / r, q^2 (n_x = q cos t, ...)
-    nz = root * math.sqrt(2.0 / r) * np.sqrt(np.clip(1.0 - u / (2.0 * r), 0.0, 1.0))
-    qq = step - ramp / r
-    q2 = step - 2.0 * ramp / r + square / (r * r)
-    nzq = nz * np.clip(1.0 - u / r, 0.0, 1.0)
+    if exact:
+        h = _hankel_numpy(r - u - var_r / (2.0 * r), s, r)
+        step, qq, nz, q2, nzq, nz2 = h[:, :6].T
+        rims = list(h[:, 6:].T)
+    else:
+        step, qq, nz, q2, nzq, nz2 = _radial_numpy(u, s, r)
+        rims = [step] * (RIM_ORDER - 1)
     c2, s2 = ct * ct - st * st, 2.0 * ct * st
-    cols = [step, qq * ct, qq * st, nz, q2 * s2, q2 * c2, nzq * ct, nzq * st, step - q2,
-            step * c2, step * s2]
+    cols = [step, qq * ct, qq * st, nz, q2 * s2, q2 * c2, nzq * ct, nzq * st, nz2,
+            rims[0] * c2, rims[0] * s2]
     cm, sm = c2, s2
-    for _ in range(3, RIM_ORDER + 1):
+    for m in range(3, RIM_ORDER + 1):
         cm, sm = cm * ct - sm * st, sm * ct + cm * st
-        cols += [step * cm, step * sm]
+        cols += [rims[m - 2] * cm, rims[m - 2] * sm]
     if el < 0.5 * math.pi:  # else lit from the camera: no shadow, no columns
         cols += list(_shadow_numpy(u, s, r, ct, st, az, el, SHADOW_NODES).T)
     shared = np.column_stack(cols)
@@ -415,17 +514,18 @@ def _design_numpy(q: np.ndarray, px: _Pixels) -> tuple[np.ndarray, np.ndarray]:
     return np.hstack([shared, local]), px.bg * (1.0 - step) + occ
 
 
-def _residual(q: np.ndarray, px: _Pixels) -> np.ndarray:
+def _residual(q: np.ndarray, px: _Pixels, exact: bool = False) -> np.ndarray:
     """Weighted residuals at ``q = (cx, cy, r, sigma, exposure, az, el)`` (one frame) or
-    ``(r, sigma, exposure, az, el)`` (the centres held), the linear coefficients solved."""
-    return _evaluate(q, px, _NONE_FREE, False)[0]
+    ``(r, sigma, exposure, az, el)`` (the centres held), the linear coefficients solved;
+    ``exact``: the columns blurred in two dimensions (:func:`._edge_kernel._hankel`)."""
+    return _evaluate(q, px, _NONE_FREE, False, exact)[0]
 
 
 _NONE_FREE = np.zeros(7, bool)
 
 
-def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
-              ) -> tuple[np.ndarray, np.ndarray]:
+def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool,
+              exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Weighted residuals at ``q`` (as :func:`_residual`) and, with ``want_jac``, their
     Jacobian with respect to the entries of ``(cx, cy, r, sigma, exposure, az, el)`` flagged
     in ``free`` (analytic, :func:`._edge_kernel.varpro`: one compiled call). Raises
@@ -444,10 +544,38 @@ def _evaluate(q: np.ndarray, px: _Pixels, free: np.ndarray, want_jac: bool
     res, jac, ok = varpro(cx, cy, r, sigma, exposure, az, el, free, px.u, px.v, cu, cv,
                           px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames, px.weight,
                           px.kappa, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]),
-                          float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER, want_jac)
+                          float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER, want_jac, exact,
+                          _hankel_nodes(), *_bessel_table())
     if not ok:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
     return res, jac
+
+
+SATURATED = 254.5  # grey levels: a pixel at or above is saturated
+
+
+def _grow(mask: np.ndarray, steps: int) -> np.ndarray:
+    """``mask`` grown by ``steps`` px along rows and columns (a diamond)."""
+    grown = mask.copy()
+    for _ in range(steps):
+        step = grown.copy()
+        step[1:] |= grown[:-1]
+        step[:-1] |= grown[1:]
+        step[:, 1:] |= grown[:, :-1]
+        step[:, :-1] |= grown[:, 1:]
+        grown = step
+    return grown
+
+
+def _near_saturated(img: np.ndarray, px: _Pixels, steps: int) -> np.ndarray:
+    """Whether each pixel of ``px`` (one frame's, of ``img``) is within ``steps`` px (along
+    rows and columns) of a saturated one."""
+    u, v = px.u.astype(np.intp), px.v.astype(np.intp)
+    u0, v0 = max(u.min() - steps, 0), max(v.min() - steps, 0)
+    box = img[v0:v.max() + steps + 1, u0:u.max() + steps + 1] >= SATURATED
+    if not box.any():
+        return np.zeros(u.size, bool)
+    return _grow(box, steps)[v - v0, u - u0]
 
 
 def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: bool,
@@ -466,14 +594,9 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: b
     vv, uu = np.mgrid[v0:v1, u0:u1].astype(np.float64)
     rho = np.hypot(uu - c[0], vv - c[1])
     near = (rho >= r0 - inner) & (rho <= reach)
-    sat = sub >= 254.5
+    sat = sub >= SATURATED
     if sat.any():
-        grown = sat.copy()
-        grown[1:] |= sat[:-1]
-        grown[:-1] |= sat[1:]
-        grown[:, 1:] |= sat[:, :-1]
-        grown[:, :-1] |= sat[:, 1:]
-        near &= ~grown
+        near &= ~_grow(sat, 1)
     idx = np.flatnonzero(near)
     if idx.size > MAX_PIXELS:  # a large ball: every k-th pixel (raster order) holds the edge
         idx = idx[::-(-idx.size // MAX_PIXELS)]
@@ -518,9 +641,15 @@ def _rim_pixels(img, bg, q: np.ndarray, velocity, kappa: np.ndarray | None
                 ) -> _Pixels | None:
     """The pixels the fit at ``q = (cx, cy, r, sigma, exposure, ...)`` reads: from 2.5 blurs
     (or ``INNER r``) inside the rim to 2 px + 3 blurs outside (:func:`_pixels`)."""
-    b = math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * math.hypot(*velocity)) ** 2 / 12)
+    b = _blur(q, velocity)
     return _pixels(img, bg, q[:2], velocity, q[2], max(2.5 * b, INNER * q[2]), 2.0 + 3.0 * b,
                    q[2] >= OCCLUSION_MIN_RADIUS, kappa)
+
+
+def _blur(q: np.ndarray, velocity) -> float:
+    """The largest SD of the step at ``q = (cx, cy, r, sigma, exposure, ...)`` (px): the
+    lens, the pixel and the exposure's smear along the ball's motion."""
+    return math.sqrt(q[3] ** 2 + 1 / 12 + (q[4] * math.hypot(*velocity)) ** 2 / 12)
 
 
 def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.ndarray
@@ -533,7 +662,8 @@ def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.
     q, res, status = fit_frame(q, free, lo[free], hi[free], 0.05, XTOL, FTOL, MAX_NFEV, px.u,
                                px.v, px.dir_u, px.dir_v, px.speed, px.frame, px.n_frames,
                                px.weight, px.kappa, px.grey, px.bg, px.gbu, px.gbv, float(zt[0]),
-                               float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER)
+                               float(zt[1] - zt[0]), gt, _nodes(), RIM_ORDER, False,
+                               _hankel_nodes(), *_bessel_table())
     if status < 0:
         raise np.linalg.LinAlgError("edge model: singular normal equations")
     return q, res
@@ -740,11 +870,12 @@ class JointFit(NamedTuple):
 
 
 def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
-                  kappa: np.ndarray | None) -> _Pixels | None:
+                  kappa: np.ndarray | None) -> tuple[_Pixels, np.ndarray] | None:
     """The pixels of every frame of ``args`` as one set, each with the robust weights of its
-    own fit ``fits`` under ``held``; None where a frame's cannot be had."""
+    own fit ``fits`` under ``held``, and whether each is within ``SATURATED_REACH`` blurs of a
+    saturated pixel; None where a frame's cannot be had."""
     sigma, exposure, az, el = held
-    pxs = []
+    pxs, near = [], []
     for (img, bg, _, v), f in zip(args, fits, strict=True):
         q = np.array([f.cx, f.cy, f.r, sigma, exposure, az, el])
         px = _rim_pixels(img, bg, q, v, kappa)
@@ -756,7 +887,8 @@ def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float
             return None
         scale = 1.4826 * float(np.median(np.abs(res))) + 1e-9
         pxs.append(px._replace(weight=(np.abs(res) <= 4.0 * scale).astype(np.float64)))
-    return _stack(pxs)
+        near.append(_near_saturated(img, px, math.ceil(SATURATED_REACH * _blur(q, v))))
+    return _stack(pxs), np.concatenate(near)
 
 
 def _at_centres(every: _Pixels, c: np.ndarray) -> _Pixels:
@@ -768,18 +900,95 @@ def _at_centres(every: _Pixels, c: np.ndarray) -> _Pixels:
 _JOINT_NAMES = ("r", "sigma", "exposure", "az", "el")
 
 
+def _bounded_lm(fun_jac: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+                x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, x_scale: float, xtol: float,
+                ftol: float, max_nfev: int) -> tuple[np.ndarray, float, int]:
+    """Least squares by Levenberg-Marquardt within ``lo <= x <= hi`` on the normal equations
+    (``fun_jac(x)``: the residuals and their Jacobian in one call): the bounded
+    Levenberg-Marquardt of :func:`._edge_kernel.fit_frame` (its damping, bounds, stopping
+    rules and scaled variables ``x / x_scale``) for the joint fits' ~60
+    unknowns and ~20 000 residuals. Written here because SciPy's ``least_squares`` with
+    bounds takes an SVD of the Jacobian at every step (0.3 s each, half the joint fit's CPU
+    time) and evaluates the residuals and the Jacobian in separate calls (the model twice).
+    Returns ``x``, its cost (half the sum of squares) and the status (-1: the start cannot be
+    evaluated; else 0: evaluations, 1: gradient, 2: ``ftol``, 3: ``xtol``)."""
+    x = np.clip(x0, lo, hi)
+    try:
+        res, jac = fun_jac(x)
+    except np.linalg.LinAlgError:
+        return x, math.inf, -1
+    if not np.all(np.isfinite(res)):
+        return x, math.inf, -1
+    nfev, cost, lam, nu = 1, 0.5 * float(res @ res), -1.0, 2.0
+    scale = 1.0 / x_scale  # the variables x / x_scale
+    while True:
+        js = jac / scale
+        jtj, grad = js.T @ js, js.T @ res
+        if np.abs(grad).max() < 1e-8:
+            return x, cost, 1
+        if lam < 0.0:
+            lam = 1e-6 * float(np.diag(jtj).max())
+        while True:
+            if nfev >= max_nfev:
+                return x, cost, 0
+            proposal = _lm_step(x, lo, hi, jtj, grad, lam, scale)
+            if proposal is None:
+                lam, nu = lam * nu, nu * 2.0
+                continue
+            trial, predicted = proposal
+            small = np.linalg.norm(trial - x) < xtol * (xtol + np.linalg.norm(x))
+            try:
+                res_t, jac_t = fun_jac(trial)
+                ok = bool(np.all(np.isfinite(res_t)))
+            except np.linalg.LinAlgError:
+                ok = False
+            nfev += 1
+            actual = cost - 0.5 * float(res_t @ res_t) if ok else -math.inf
+            if predicted > 0.0 and actual > 1e-4 * predicted:
+                rho = actual / predicted
+                x, res, jac = trial, res_t, jac_t
+                lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+                nu = 2.0
+                before, cost = cost, cost - actual
+                if actual < ftol * before and rho > 0.25:
+                    return x, cost, 2
+                if small:
+                    return x, cost, 3
+                break
+            if small:
+                return x, cost, 3
+            lam, nu = lam * nu, nu * 2.0
+
+
+def _lm_step(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, jtj: np.ndarray,
+             grad: np.ndarray, lam: float, scale: float
+             ) -> tuple[np.ndarray, float] | None:
+    """:func:`_bounded_lm`'s trial point from ``x`` (the normal equations ``jtj``, ``grad``
+    in the scaled variables ``x * scale``, damping ``lam``) and the fall in cost it predicts;
+    a variable at a bound that the gradient pushes outwards held there, the step clipped to
+    the bounds. None where the damped equations are singular."""
+    held = ((x <= lo + 1e-9 * (hi - lo)) & (grad > 0)) | ((x >= hi - 1e-9 * (hi - lo)) & (grad < 0))
+    mat = np.where(held[:, None] | held[None, :], 0.0, jtj)
+    mat[np.diag_indices_from(mat)] += np.where(held, 1.0, lam)
+    try:
+        step = np.linalg.solve(mat, np.where(held, 0.0, -grad))
+    except np.linalg.LinAlgError:
+        return None
+    trial = np.clip(x + step / scale, lo, hi)
+    step = (trial - x) * scale
+    return trial, float(-(grad @ step + 0.5 * step @ jtj @ step))
+
+
 def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str, ...]
-                 ) -> tuple[np.ndarray, np.ndarray] | None:
+                 ) -> tuple[np.ndarray, np.ndarray, float] | None:
     """The frames of ``every`` fitted together from ``q = (r, sigma, exposure, az, el)`` and
     their centres ``c`` ``(n, 2)``: the entries of ``q`` ``names``d and every frame's centre
-    free (SciPy's least_squares on the compiled model and its Jacobian, whose columns are each
-    frame's ``(cx, cy)``, then the free entries of ``q`` in order). The best ``q`` and centres;
-    None where the fit fails.
+    free (:func:`_bounded_lm` on the compiled model with the exact columns and its Jacobian,
+    whose columns are each frame's ``(cx, cy)``, then the free entries of ``q`` in order). The
+    best ``q``, centres and cost (half the sum of squares); None where the fit fails.
 
     Each frame's centre is always free: held at the first joint fit's while the blur and light
     were freed, the sweep's radii moved by up to 4 %."""
-    from scipy.optimize import least_squares
-
     n = every.n_frames
     idx = [_JOINT_NAMES.index(name) for name in names]
     free = np.zeros(7, bool)
@@ -792,65 +1001,47 @@ def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str,
         qx[idx] = x[:p]
         return qx, _at_centres(every, x[p:].reshape(n, 2))
 
-    def fun(x: np.ndarray) -> np.ndarray:
-        return _evaluate(*at(x), _NONE_FREE, False)[0]
-
-    def jac(x: np.ndarray) -> np.ndarray:
-        jc = _evaluate(*at(x), free, True)[1]
-        return np.hstack([jc[:, 2 * n:], jc[:, :2 * n]])
+    def fun_jac(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        res, jc = _evaluate(*at(x), free, True, True)
+        return res, np.hstack([jc[:, 2 * n:], jc[:, :2 * n]])
 
     lo_q = np.array([0.75 * q[0], 0.5 * q[1], 0.0, q[3] - math.pi, 0.02])
     hi_q = np.array([1.3 * q[0], 2.0 * q[1] + 0.1, 1.0, q[3] + math.pi, 1.5])
     lo = np.concatenate([lo_q[idx], c.ravel() - 2.0])
     hi = np.concatenate([hi_q[idx], c.ravel() + 2.0])
-    x0 = np.clip(np.concatenate([q[idx], c.ravel()]), lo + 1e-9, hi - 1e-9)
-    try:
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), x_scale="jac", xtol=1e-6,
-                            ftol=1e-8, max_nfev=50)
-    except np.linalg.LinAlgError:
+    x0 = np.clip(np.concatenate([q[idx], c.ravel()]), lo, hi)
+    x, cost, status = _bounded_lm(fun_jac, x0, lo, hi, 0.05, 1e-6, 1e-8, 50)
+    if status < 0 or not np.all(np.isfinite(x)):
         return None
-    if sol.status <= 0 or not np.all(np.isfinite(sol.x)):
-        return None
-    qx, _ = at(sol.x)
-    return qx, sol.x[p:].reshape(n, 2)
+    qx, _ = at(x)
+    return qx, x[p:].reshape(n, 2), cost
 
 
-# the light's directions tried on the frames together (radians): 10 degrees apart in the
-# azimuth (the joint cost's minima are narrower than a frame's)
-_JOINT_AZIMUTHS = np.radians(np.arange(-180.0, 180.0, 10.0))
-_JOINT_ELEVATIONS = (0.2, 0.45, 0.7, 0.95, 1.2)
+# the light's directions tried on the frames together (radians): 30 degrees apart in the
+# azimuth, the second fit takes it from there (with the columns blurred along the radius only
+# this grid took an elevation of 11 degrees for a light at 50 on two of four side-lit 10 px
+# balls under a 1.5 px blur; those needed 10 degrees x 5 elevations)
+_JOINT_AZIMUTHS = np.radians(np.arange(-180.0, 180.0, 30.0))
+_JOINT_ELEVATIONS = (0.2, 0.7, 1.2)
 
 
 def _joint_light(every: _Pixels, q: np.ndarray, c: np.ndarray) -> tuple[float, float] | None:
     """The light's direction ``(az, el)`` that fits the frames of ``every`` best together at
-    ``q`` and centres ``c``, of a grid; None where it lowers their cost by less than
-    ``JOINT_SHADOW_MIN_FALL`` of it (no shadow to be seen).
-
-    Every frame and pixel scored: on every third frame and every other pixel (a sixth of the
-    CPU time) the grid missed the light by 80-180 degrees on three of six rendered balls,
-    radius 10 px, blur 1.5 px, plain wall."""
+    ``q`` and centres ``c``, of a grid (the exact columns: 36 evaluations); None where it
+    lowers their cost by less than ``JOINT_SHADOW_MIN_FALL`` of it (no shadow to be seen)."""
     px = _at_centres(every, c)
 
     def cost(az: float, el: float) -> float:
         try:
-            res = _evaluate(np.array([q[0], q[1], q[2], az, el]), px, _NONE_FREE, False)[0]
+            res = _evaluate(np.array([q[0], q[1], q[2], az, el]), px, _NONE_FREE, False,
+                            True)[0]
         except np.linalg.LinAlgError:
             return math.inf
         return float(res @ res)
 
-    # every third azimuth and every other elevation first (a fifth of the grid): where those
-    # lower the cost by less than half JOINT_SHADOW_MIN_FALL there is no shadow and the rest
-    # is not scored (the sweep's scenes: shaded balls 0.78-2.6 % there, 0.94-2.9 % on the
-    # whole grid; dark balls and balls lit from the camera at most 0.19 and 0.21 %)
-    coarse = [(float(az), el) for i, az in enumerate(_JOINT_AZIMUTHS) if i % 3 == 0
-              for j, el in enumerate(_JOINT_ELEVATIONS) if j % 2 == 0]
     none = cost(0.0, _NO_SHADOW)
-    best, light = min((cost(az, el), (az, el)) for az, el in coarse)
-    if not none - best > 0.5 * JOINT_SHADOW_MIN_FALL * best:
-        return None
-    best, light = min([(best, light)] + [
-        (cost(float(az), el), (float(az), el)) for az in _JOINT_AZIMUTHS
-        for el in _JOINT_ELEVATIONS if (float(az), el) not in coarse])
+    best, light = min((cost(float(az), el), (float(az), el)) for az in _JOINT_AZIMUTHS
+                      for el in _JOINT_ELEVATIONS)
     if not none - best > JOINT_SHADOW_MIN_FALL * best:
         return None
     return light
@@ -865,9 +1056,12 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
     robust weights as its fit's) under ``held = (sigma, exposure, az, el)``. None where the
     fit fails.
 
-    First the radius alone, the rest held; then, for a ball of ``SHADOW_MIN_RADIUS`` or more,
-    the blur and the light's direction free with it (the light from the held one, or where
-    that has none the best of a grid, :func:`_joint_light`).
+    First the radius alone, the rest held (from three radii, the lowest cost kept); then, for a
+    ball of ``SHADOW_MIN_RADIUS`` or more with a light (the held one, or where that has none
+    the best of a grid, :func:`_joint_light`), the blur, the exposure and the light's direction
+    free with it, and again without the pixels near a saturated one. Every stage with the
+    columns blurred in two dimensions (``exact``, :func:`._edge_kernel._hankel`) and the
+    compiled model's Jacobian (:func:`_bounded_lm`).
 
     Why: a frame alone hardly holds the radius where the blur is a large part of it (the
     shading's limb and level trade against a blurred step at another radius), and what it
@@ -879,15 +1073,23 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
     is within a blur or two of the rim, ``SHADOW_MAX_BLUR``), together they do, and the blur
     the frames' medians held is off by up to 0.1 px, a -2 / +2 % error in the radius
     (docs/tracking.md §1, *the frames together*, *the light and the blur of the frames
-    together*)."""
-    every = _joint_pixels(args, fits, held, kappa)
-    if every is None:
+    together*, *the columns blurred in two dimensions*). The frames' own fits keep the columns
+    blurred along the radius only (2-3x cheaper; their radius is not the one kept here)."""
+    joined = _joint_pixels(args, fits, held, kappa)
+    if joined is None:
         return None
-    q = np.array([float(np.median([f.r for f in fits])), *held])
-    first = _joint_solve(every, q, np.array([[f.cx, f.cy] for f in fits]), ("r",))
-    if first is None:
+    every, near_saturated = joined
+    # the joint cost has more than one minimum in the radius (a ball lit from the camera, 10
+    # px, blur 0.7 px, plain wall: at +0.4 and +4.3 %, the second reached from the frames'
+    # median): from the median and 4 % either side, the lowest kept
+    median = float(np.median([f.r for f in fits]))
+    starts = [_joint_solve(every, np.array([median * k, *held]),
+                           np.array([[f.cx, f.cy] for f in fits]), ("r",))
+              for k in JOINT_STARTS]
+    found = [s for s in starts if s is not None]
+    if not found:
         return None
-    q, c = first
+    q, c, _ = min(found, key=lambda s: s[2])
     out = JointFit(float(q[0]), c, float(q[1]), (float(q[3]), float(q[4])))
     if q[0] < SHADOW_MIN_RADIUS:
         return out
@@ -896,10 +1098,21 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
         if light is None:  # no shadow: the blur as held (freed, it only scatters the radius)
             return out
         q[3:] = light
-    second = _joint_solve(every, q, c, ("r", "sigma", "az", "el"))
+    # the second fit without the pixels within SATURATED_REACH blurs of a saturated one: such
+    # a patch on a ball is mostly a specular highlight, which no column holds, and the blur
+    # carries its light outwards (a glossy 10 px ball under a 1.5 px blur, one noise-free
+    # frame, tests/render_pbr.py: 15 grey levels of it 2 px inside the rim; the radius +8.1 %
+    # without its neighbours, +3.3 % within 3 px, +0.03 % within 5 px, 3.3 blurs; a matte
+    # ball that saturates -0.16 -> -0.38 %). The first fit and the light's grid keep them:
+    # without a glossy ball's lit side the grid missed its light by ~105 degrees
+    names = ("r", "sigma", "exposure", "az", "el")
+    second = _joint_solve(every, q, c, names)
     if second is None:
         return out
-    q, c = second
+    if np.any(near_saturated & (every.weight > 0)):
+        clear = every._replace(weight=np.where(near_saturated, 0.0, every.weight))
+        second = _joint_solve(clear, *second[:2], names) or second
+    q, c, _ = second
     return JointFit(float(q[0]), c, float(q[1]), (float(q[3]), float(q[4])))
 
 
