@@ -174,15 +174,16 @@ def _hankel(rho, s, r, hnodes, etab, da, ev, gg, want, rad):
     """The exact Gaussian blur (covariance ``s^2 I``) of each of the columns' radial profiles
     (``_PROFILE_M``, then profile 1 of the rim's ``m = 2, 3, ..``) on the disk of radius
     ``r``, at distance ``rho`` from its centre, into ``rad[j] = (H_j, dH_j/drho, dH_j/ds,
-    dH_j/dr)`` (the derivatives only with ``want``; ``ev``, ``gg`` (7 rows) scratch).
+    dH_j/dr)`` (the derivatives only with ``want``; ``ev``, ``gg`` (6 rows) scratch).
 
     The blur of ``g(rho') cos(m t)`` is ``H(rho) cos(m t)``, ``H(rho) = int_0^r K_m(rho,
     rho') g(rho') drho'``, ``K_m = (rho' / s^2) exp(-(rho - rho')^2 / (2 s^2)) I_m(rho rho' /
     s^2) exp(-rho rho' / s^2)`` (the Gaussian's angular integral, DLMF 10.32.3), over ``rho
-    -+ 5 s`` within the disk, by Gauss-Legendre: in ``rho'`` (16 nodes), and over the last
-    ``3 s`` of the disk in ``w = sqrt(r - rho')`` (12 nodes; it takes away the square root of
-    ``n_z`` at the rim, where in ``rho'`` alone the quadrature was off by 1e-3); against
-    adaptive quadrature within 7e-7 for radii 3-20 px and blurs 0.29-2 px. The derivatives are
+    -+ 5 s`` within the disk, by Gauss-Legendre: in ``rho'`` (14 nodes), and over the last
+    ``3 s`` of the disk in ``w = sqrt(r - rho')`` (10 nodes; it takes away the square root of
+    ``n_z`` at the rim, where in ``w`` alone over the whole range the quadrature was off by
+    1e-3 deeper in); against adaptive quadrature within 3e-6 for radii 3-20 px and blurs
+    0.29-2 px. The derivatives are
     the exact integral's (under the integral, and the ends that move: the Gaussian's cut with
     ``rho`` and ``s``, the rim with ``r``). The columns it replaces (a blur along the radius
     only, and products of blurred factors for the products of the normal's components) were
@@ -200,7 +201,7 @@ def _hankel(rho, s, r, hnodes, etab, da, ev, gg, want, rad):
     inv_s2 = 1.0 / (s * s)
     g = gg[0]
     g_r = gg[1]
-    km = gg[2:7, :ev.shape[1]]
+    km = gg[2:6, :ev.shape[1]]
     mid = hi if hi < r else max(lo, r - _HANKEL_SPLIT * s)
     for node in range(_NODES_IN + _NODES_RIM):
         if node < _NODES_IN:  # in rho' over [lo, mid]
@@ -227,7 +228,8 @@ def _hankel(rho, s, r, hnodes, etab, da, ev, gg, want, rad):
         _ive(a, etab, da, ev)
         gauss = inv_s2 * math.exp(-0.5 * d * d * inv_s2) * rp  # K_m / E_m
         _profiles(1.0 - p, root, r, g, g_r)
-        # each order's kernel (and its derivatives in rho, s, rho'), then the profiles'
+        # each order's kernel times the weight (and its derivatives in rho and s, and the
+        # weight over sqrt(1 - x^2)), then the profiles'
         for m in range(ev.shape[1]):
             kk = gauss * ev[0, m]
             km[0, m] = kk * jw
@@ -235,8 +237,7 @@ def _hankel(rho, s, r, hnodes, etab, da, ev, gg, want, rad):
                 kp = gauss * ev[1, m]
                 km[1, m] = (-kk * d + kp * rp) * inv_s2 * jw
                 km[2, m] = (kk * (d * d * inv_s2 - 2.0) - kp * 2.0 * a) / s * jw
-                km[3, m] = kk * jw
-                km[4, m] = kk * jwr
+                km[3, m] = kk * jwr
         for j in range(n_prof):
             m = _PROFILE_M[j] if j < 6 else j - 4
             rad[j, 0] += km[0, m] * g[j]
@@ -244,7 +245,7 @@ def _hankel(rho, s, r, hnodes, etab, da, ev, gg, want, rad):
                 rad[j, 1] += km[1, m] * g[j]
                 rad[j, 2] += km[2, m] * g[j]
                 # d g / dr at rho' held: regular, or (2, 4) a multiple of 1 / sqrt(1 - x^2)
-                rad[j, 3] += km[4 if j == 2 or j == 4 else 3, m] * g_r[j]
+                rad[j, 3] += km[3 if j == 2 or j == 4 else 0, m] * g_r[j]
     if not want:
         return
     # the ends that move: the Gaussian's cuts with rho and s, the rim with r
@@ -605,7 +606,7 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     n_prof = 6 + max(rim_order, 2) - 1  # radial factors: 6, then the rim's m = 2 .. rim_order
     part = np.empty((n_prof, 4))
     rad = np.empty((n_prof, 4))
-    gg = np.empty((7, n_prof))
+    gg = np.empty((6, n_prof))
     ev = np.empty((2, max(rim_order, 2) + 1))
     chain = np.empty((7, 4))
     ang = np.empty((max(rim_order, 2) + 1, 2))
@@ -613,11 +614,26 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     docc = np.empty(7)
     az_c = math.cos(az)
     az_s = math.sin(az)
+    # with the Jacobian, what each pixel's row derivatives need, kept from the first pass
+    nk = n if want_jac else 0
+    k_step = np.empty(nk)
+    k_part = np.empty((nk, n_prof, 4))
+    k_chain = np.empty((nk, 7, 4))
+    k_ang = np.empty((nk, ang.shape[0], 2))
+    k_cp = np.empty((nk, 2, 7))
+    k_docc = np.empty((nk, 7))
     for i in range(n):
         step, occ = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i],
                          r, sigma, exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order,
-                         False, row, part, chain, ang, cp, gbu[i], gbv[i], docc, exact,
+                         want_jac, row, part, chain, ang, cp, gbu[i], gbv[i], docc, exact,
                          hnodes, etab, da, ev, gg, rad)
+        if want_jac:
+            k_step[i] = step
+            k_part[i] = part
+            k_chain[i] = chain
+            k_ang[i] = ang
+            k_cp[i] = cp
+            k_docc[i] = docc
         out = 1.0 - step
         w = weight[i] / math.sqrt(1.0 + kappa[i] * out * out)
         for c in range(n_shared):
@@ -663,10 +679,8 @@ def varpro(cx, cy, r, sigma, exposure, az, el, free, u, v, cu, cv, dir_u, dir_v,
     g = np.zeros((n, n_free))
     h = np.zeros((m, n_free))
     for i in range(n):
-        step, _ = _row(u[i] - cu[i] - cx, v[i] - cv[i] - cy, dir_u[i], dir_v[i], speed[i], r,
-                       sigma, exposure, az_c, az_s, el, z0, dz, table, nodes, rim_order, True,
-                       row, part, chain, ang, cp, gbu[i], gbv[i], docc, exact, hnodes,
-                       etab, da, ev, gg, rad)
+        step = k_step[i]
+        part, chain, ang, cp, docc = k_part[i], k_chain[i], k_ang[i], k_cp[i], k_docc[i]
         out = 1.0 - step
         spread = 1.0 + kappa[i] * out * out
         w = weight[i] / math.sqrt(spread)
