@@ -1113,7 +1113,8 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
         clear = every._replace(weight=np.where(near_saturated, 0.0, every.weight))
         second = _joint_solve(clear, *second[:2], names) or second
     q, c, _ = second
-    return JointFit(float(q[0]), c, float(q[1]), (float(q[3]), float(q[4])))
+    az = math.remainder(float(q[3]), 2.0 * math.pi)  # the fit may carry it past +-pi
+    return JointFit(float(q[0]), c, float(q[1]), (az, float(q[4])))
 
 
 # frames, backgrounds, centres (px) and velocities (px per frame) of the frames fitted
