@@ -1171,6 +1171,38 @@ def test_the_shadow_columns_are_the_blurred_shadow_of_a_lambert_sphere(s):
                          np.array([math.sin(az + 3.0)]), az, el, SHADOW_NODES)[0, 0] < -0.05
 
 
+@pytest.mark.parametrize("upper", [5.0, 1.2])
+def test_the_joint_fits_levenberg_marquardt_is_scipys_least_squares(upper):
+    from scipy.optimize import least_squares
+
+    from bouncebayes.tracking._edge import _bounded_lm
+
+    # independent: SciPy's bounded least squares on the same problem, a decaying exponential
+    # plus an offset with noise, the rate free (upper 5: the minimum inside) or held by its
+    # bound (upper 1.2 below the best rate, ~1.5)
+    rng = np.random.default_rng(4)
+    t = np.linspace(0.0, 4.0, 200)
+    y = 3.0 * np.exp(-1.5 * t) + 0.5 + rng.normal(0.0, 0.02, t.size)
+
+    def fun(p):
+        return p[0] * np.exp(-p[1] * t) + p[2] - y
+
+    def fun_jac(p):
+        e = np.exp(-p[1] * t)
+        return fun(p), np.column_stack([e, -p[0] * t * e, np.ones_like(t)])
+
+    lo, hi = np.array([0.0, 0.1, -1.0]), np.array([10.0, upper, 2.0])
+    x0 = np.array([1.0, 0.5, 0.0])
+    x, cost, status = _bounded_lm(fun_jac, x0, lo, hi, 0.05, 1e-10, 1e-12, 200)
+    ref = least_squares(fun, x0, jac=lambda p: fun_jac(p)[1], bounds=(lo, hi), xtol=1e-12,
+                        ftol=1e-14, gtol=1e-14)
+    assert status > 0
+    np.testing.assert_allclose(x, ref.x, rtol=0, atol=1e-5)
+    assert cost == pytest.approx(ref.cost, rel=1e-8)
+    if upper < 1.5:
+        assert x[1] == pytest.approx(upper)
+
+
 def test_the_exact_columns_are_the_disks_functions_blurred_in_two_dimensions():
     from bouncebayes.tracking._edge import _design_numpy, _Pixels
 

@@ -913,12 +913,10 @@ def _bounded_lm(fun_jac: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
     Returns ``x``, its cost (half the sum of squares) and the status (-1: the start cannot be
     evaluated; else 0: evaluations, 1: gradient, 2: ``ftol``, 3: ``xtol``)."""
     x = np.clip(x0, lo, hi)
-    try:
-        res, jac = fun_jac(x)
-    except np.linalg.LinAlgError:
+    start = _evaluated(fun_jac, x)
+    if start is None:
         return x, math.inf, -1
-    if not np.all(np.isfinite(res)):
-        return x, math.inf, -1
+    res, jac = start
     nfev, cost, lam, nu = 1, 0.5 * float(res @ res), -1.0, 2.0
     scale = 1.0 / x_scale  # the variables x / x_scale
     while True:
@@ -932,21 +930,19 @@ def _bounded_lm(fun_jac: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
             if nfev >= max_nfev:
                 return x, cost, 0
             proposal = _lm_step(x, lo, hi, jtj, grad, lam, scale)
-            if proposal is None:
+            if proposal is None:  # a Jacobian with a NaN: no step can be found
                 lam, nu = lam * nu, nu * 2.0
+                if not lam < 1e300:
+                    return x, cost, 1
                 continue
             trial, predicted = proposal
             small = np.linalg.norm(trial - x) < xtol * (xtol + np.linalg.norm(x))
-            try:
-                res_t, jac_t = fun_jac(trial)
-                ok = bool(np.all(np.isfinite(res_t)))
-            except np.linalg.LinAlgError:
-                ok = False
+            at_trial = _evaluated(fun_jac, trial)
             nfev += 1
-            actual = cost - 0.5 * float(res_t @ res_t) if ok else -math.inf
-            if predicted > 0.0 and actual > 1e-4 * predicted:
+            actual = -math.inf if at_trial is None else cost - 0.5 * float(at_trial[0] @ at_trial[0])
+            if at_trial is not None and predicted > 0.0 and actual > 1e-4 * predicted:
                 rho = actual / predicted
-                x, res, jac = trial, res_t, jac_t
+                x, (res, jac) = trial, at_trial
                 lam *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
                 nu = 2.0
                 before, cost = cost, cost - actual
@@ -958,6 +954,16 @@ def _bounded_lm(fun_jac: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
             if small:
                 return x, cost, 3
             lam, nu = lam * nu, nu * 2.0
+
+
+def _evaluated(fun_jac: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+               x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``fun_jac(x)``, or None where the model cannot be evaluated or is not finite there."""
+    try:
+        res, jac = fun_jac(x)
+    except np.linalg.LinAlgError:
+        return None
+    return (res, jac) if np.all(np.isfinite(res)) else None
 
 
 def _lm_step(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, jtj: np.ndarray,
