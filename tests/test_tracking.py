@@ -1211,7 +1211,7 @@ def test_the_exact_columns_are_the_disks_functions_blurred_in_two_dimensions():
     # 3, 4), drawn on a grid 8x finer than the pixels, blurred by OpenCV's Gaussian (sigma
     # 1.5 px) and averaged over each pixel. The model stands the pixel's box in with a
     # Gaussian of variance 1/12 (~3e-4 of a column here); the columns blurred along the
-    # radius only were off by up to 0.06 (n_x n_z) and 0.4 (cos 4t) of their largest value
+    # radius only were off by up to 13 % (n_x n_z) and 40 % (cos 4t) of their largest value
     sub, n, r, sigma, cx, cy = 8, 48, 10.0, 1.5, 24.3, 23.6
     grid = (np.arange(n)[:, None] + (np.arange(sub) + 0.5) / sub - 0.5).ravel()
     uu, vv = np.meshgrid(grid, grid)

@@ -1104,13 +1104,16 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
         if light is None:  # no shadow: the blur as held (freed, it only scatters the radius)
             return out
         q[3:] = light
-    # the second fit without the pixels within SATURATED_REACH blurs of a saturated one: such
-    # a patch on a ball is mostly a specular highlight, which no column holds, and the blur
-    # carries its light outwards (a glossy 10 px ball under a 1.5 px blur, one noise-free
-    # frame, tests/render_pbr.py: 15 grey levels of it 2 px inside the rim; the radius +8.1 %
-    # without its neighbours, +3.3 % within 3 px, +0.03 % within 5 px, 3.3 blurs; a matte
-    # ball that saturates -0.16 -> -0.38 %). The first fit and the light's grid keep them:
-    # without a glossy ball's lit side the grid missed its light by ~105 degrees
+    # the blur, the exposure (the frames' held one came out 0.99 for a ball filmed at none)
+    # and the light free with the radius; then again without the pixels within
+    # SATURATED_REACH blurs of a saturated one: such a patch on a ball is mostly a specular
+    # highlight, which no column holds, and the blur carries its light outwards (a glossy 10
+    # px ball under a 1.5 px blur, one noise-free frame, tests/render_pbr.py: 15 grey levels
+    # of it 2 px inside the rim; the radius +8.1 % without its neighbours, +3.3 % within 3
+    # px, +0.03 % within 5 px, 3.3 blurs; a matte ball that saturates -0.16 -> -0.38 %; with
+    # noise, on a plain wall, -5.0..+6.9 % over seven draws: without its lit side the radius
+    # trades against the blur). The first fits and the light's grid keep them: without a
+    # glossy ball's lit side the grid missed its light by ~105 degrees
     names = ("r", "sigma", "exposure", "az", "el")
     second = _joint_solve(every, q, c, names)
     if second is None:
