@@ -285,11 +285,34 @@ def _profiles(x, root, r, g, g_r):
 
 
 @njit(cache=True)
-def _analytic(uu, s, z, r, step, dens, ramp, square, root, root_uu, root_s, want, part):
+def _analytic(uu, s, z, r, step, dens, z0, dz, table, want, part):
     """The radial factors of :func:`_row` blurred along the radius only, in closed form, into
     ``part[j, 0]`` and (with ``want``) their derivatives ``part[j, 1:] = (d/duu, d/ds, d/dr)``:
     ``step, qq, nz, q2, nzq`` (``n_z`` times ``rho / r``: the product of the blurred factors),
-    ``step - q2`` (``n_z^2``) and ``step`` for each of the rim's harmonics."""
+    ``step - q2`` (``n_z^2``) and ``step`` for each of the rim's harmonics; from the blurred
+    step and its density at ``z = uu / s``, the ramp's and square's closed forms (``d ramp/duu
+    = step``, ``d ramp/ds = dens``, ``d square/duu = 2 ramp``, ``d square/ds = 2 s step``) and
+    ``E[sqrt(uu + e)_+]`` from ``table`` (``G(z)`` from ``z0``, spacing ``dz``)."""
+    ramp = uu * step + s * dens
+    square = (uu * uu + s * s) * step + uu * s * dens
+    nt = table.size
+    if z > z0 + dz * (nt - 1):
+        root = math.sqrt(max(uu, 0.0))
+        root_uu = 0.5 / root if root > 0.0 else 0.0
+        root_s = 0.0
+    elif z <= z0:
+        root = math.sqrt(s) * table[0]
+        root_uu = 0.0
+        root_s = 0.5 * table[0] / math.sqrt(s)
+    else:
+        x = (z - z0) / dz
+        j = min(int(x), nt - 2)
+        f = x - j
+        g = table[j] * (1.0 - f) + table[j + 1] * f
+        g_z = (table[j + 1] - table[j]) / dz  # d G / dz, of the interpolant
+        root = math.sqrt(s) * g
+        root_uu = g_z / math.sqrt(s)
+        root_s = 0.5 * g / math.sqrt(s) - g_z * z / math.sqrt(s)
     sq2r = math.sqrt(2.0 / r)
     a1 = 1.0 - uu / (2.0 * r)
     b = math.sqrt(min(max(a1, 0.0), 1.0))
@@ -380,30 +403,9 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz
     z = uu / s
     step = 0.5 * math.erfc(-z / _SQRT2)
     dens = math.exp(-0.5 * z * z) * _INV_SQRT_2PI
-    ramp = uu * step + s * dens
-    square = (uu * uu + s * s) * step + uu * s * dens
     kap = sigma * sigma + 1.0 / 12.0
     g_rho = gbu * ct + gbv * st
     occ = kap * g_rho * dens / s
-    nt = table.size
-    g_z = 0.0  # d root / dz at s held, of the tabulated part
-    if z > z0 + dz * (nt - 1):
-        root = math.sqrt(max(uu, 0.0))
-        root_uu = 0.5 / root if root > 0.0 else 0.0
-        root_s = 0.0
-    elif z <= z0:
-        root = math.sqrt(s) * table[0]
-        root_uu = 0.0
-        root_s = 0.5 * table[0] / math.sqrt(s)
-    else:
-        x = (z - z0) / dz
-        j = min(int(x), nt - 2)
-        f = x - j
-        g = table[j] * (1.0 - f) + table[j + 1] * f
-        root = math.sqrt(s) * g
-        g_z = (table[j + 1] - table[j]) / dz
-        root_uu = g_z / math.sqrt(s)
-        root_s = 0.5 * g / math.sqrt(s) - g_z * z / math.sqrt(s)
     if exact:  # the radial profiles blurred in two dimensions (at rho with the curvature's
         # shift of the tangential blur beyond the radial one: uu's r - var_t / 2r is the
         # isotropic blur's r - var_r / 2r there), by quadrature
@@ -417,7 +419,7 @@ def _row(du, dv, dir_u, dir_v, speed, r, sigma, exposure, az_c, az_s, el, z0, dz
             part[j, 3] = rad[j, 3] + h_rho * shift_r
         step = part[0, 0]
     else:
-        _analytic(uu, s, z, r, step, dens, ramp, square, root, root_uu, root_s, want, part)
+        _analytic(uu, s, z, r, step, dens, z0, dz, table, want, part)
     qq, nz, q2, nzq, nz2 = part[1, 0], part[2, 0], part[3, 0], part[4, 0], part[5, 0]
     c2 = ct * ct - st * st
     s2 = 2.0 * ct * st
