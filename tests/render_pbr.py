@@ -22,7 +22,9 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   line with a darker plane below it; optional lit band above the surface, a static occluder
   (a vertical post in front of the ball) and a contact shadow under the ball.
 - **Sensor**: gain to grey levels, shot noise (variance ``shot * grey``) plus read noise,
-  clipping at 0 and 255 (a saturated highlight), 8-bit rounding; then optionally a lossy codec
+  clipping at 0 and 255 (a saturated highlight), optionally the camera's tone curve (``tone``:
+  ``"srgb"``, IEC 61966-2-1's encoding, or ``"rec709"``, the BT.709 camera curve, applied to the
+  clipped signal over 255), 8-bit rounding; then optionally a lossy codec
   (``"MJPG"`` in .avi or ``"mp4v"`` in .mp4 through OpenCV) and decoding back.
 
 The truth: ``Shot.true_centres()`` (mid-exposure centres, px), ``Shot.radius_px`` and the
@@ -106,6 +108,7 @@ class Shot:
     read_noise: float = 1.5
     shot: float = 0.05
     codec: str | None = None          # "MJPG" or "mp4v"
+    tone: str = "linear"              # the camera's tone curve: "linear", "srgb" or "rec709"
     seed: int = 0
     throw: Throw = field(default_factory=Throw)
 
@@ -242,8 +245,19 @@ def render(shot: Shot) -> np.ndarray:
             img[v0 + iv0:v0 + iv1, u0 + iu0:u0 + iu1] = win[iv0:iv1, iu0:iu1]
         noisy = img + rng.standard_normal(img.shape) * np.sqrt(
             shot.read_noise**2 + shot.shot * np.maximum(img, 0.0))
+        if shot.tone != "linear":
+            noisy = 255.0 * _encode(np.clip(noisy, 0.0, 255.0) / 255.0, shot.tone)
         frames[k] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
     return _codec(frames, shot) if shot.codec else frames
+
+
+def _encode(x: np.ndarray, tone: str) -> np.ndarray:
+    """Light ``x`` in [0, 1] to the stored signal in [0, 1] by the camera's tone curve."""
+    if tone == "srgb":  # IEC 61966-2-1
+        return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+    if tone == "rec709":  # ITU-R BT.709 opto-electronic transfer
+        return np.where(x < 0.018, 4.5 * x, 1.099 * np.power(x, 0.45) - 0.099)
+    raise ValueError(f"unknown tone curve {tone!r}")
 
 
 def _disk_kernel(radius: float, sub: int = 8) -> np.ndarray:

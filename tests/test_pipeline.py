@@ -369,24 +369,31 @@ def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_
     lines: list[str] = []
     stage = tmp_path / "stage"
     folder = _track_videos(videos, experiment, stage, lines.append,
-                           {"fps": 1000.0, "surface": None}, False)
+                           {"fps": 1000.0, "surface": None, "tone_curve": None}, False)
     warnings = [line for line in lines if "warning" in line]
-    assert len(warnings) == 1, lines
+    assert len(warnings) == 2, lines
     assert warnings[0].startswith("  warning, 2 of 2 videos (first b0.avi): the ball is ")
     assert "give --reference" in warnings[0]
+    # MJPEG files, their tone curve not given (tracking.tone_curve_warning): said once too
+    assert warnings[1].startswith("  warning, 2 of 2 videos (first b0.avi): the frames were "
+                                  "taken as linear in light (no --tone-curve given)")
     for name in ("b0", "b1"):
         record = json.loads((folder / f"{name}.track.json").read_text(encoding="utf-8"))
         assert record["calibration"]["relative_sd"] > 0.02
         assert "give --reference" in record["ball"]["warning"]
         assert record["surface"]["source"] == "detected"
-    # `run --surface`: the same line for every video, recorded in each record's settings
+    # `run --surface --tone-curve linear`: the same line for every video, and the curve,
+    # recorded in each record's settings; the curve given, no warning of it
     points = ",".join(f"{v:g}" for v in scene.surface_points())
+    lines.clear()
     folder = _track_videos(videos, experiment, tmp_path / "stage2", lines.append,
-                           {"fps": 1000.0, "surface": points}, False)
+                           {"fps": 1000.0, "surface": points, "tone_curve": "linear"}, False)
+    assert not any("tone curve" in line for line in lines), lines
     for name in ("b0", "b1"):
         record = json.loads((folder / f"{name}.track.json").read_text(encoding="utf-8"))
         assert record["surface"]["source"] == "points"
         assert record["settings"]["surface"] == points
+        assert record["settings"]["tone_curve"] == record["tone_curve"] == "linear"
         assert record["surface"]["angle_deg"] == pytest.approx(
             Surface.from_text(points).angle, abs=1e-9)
 
@@ -403,7 +410,7 @@ def test_scale_gravity_on_a_trial_table_is_said_to_do_nothing(tmp_path, demo):
     experiment = dataclasses.replace(experiment, trajectories=settings)
     lines: list[str] = []
     trials = _trials(demo.trials, experiment, tmp_path, tmp_path / "out", lines.append,
-                     {"fps": None, "surface": None}, False)
+                     {"fps": None, "surface": None, "tone_curve": None}, False)
     assert lines == ["  note: `scale = \"gravity\"` in [trajectories] needs the flights, which a "
                      "trial table does not hold: its speeds are taken as they are"]
     np.testing.assert_array_equal(trials.rebound_speed,
@@ -434,7 +441,7 @@ def test_run_on_videos_names_the_one_whose_fall_disagrees_with_its_scale(tmp_pat
     lines: list[str] = []
     points = ",".join(f"{v:g}" for v in scene.surface_points())
     folder = _track_videos(videos, experiment, tmp_path / "stage", lines.append,
-                           {"fps": None, "surface": points}, False)
+                           {"fps": None, "surface": points, "tone_curve": None}, False)
     fell = [line for line in lines if "free flights fall" in line]
     assert len(fell) == 1, lines
     assert fell[0].startswith("  warning, 1 of 3 videos (first b1.avi): ")

@@ -694,6 +694,54 @@ def test_the_coverage_radius_the_edge_model_replaces_was_biased():
     assert abs(old.ball_radius / shot.radius_px - 1.0) > 0.02  # measured -7 %
 
 
+def test_the_tone_curves_decode_as_their_standards():
+    # closed forms: IEC 61966-2-1 decodes 0.5 to ((0.5 + 0.055) / 1.055)^2.4 = 0.21404, BT.709's
+    # camera curve inverts 0.5 to (0.599 / 1.099)^(1 / 0.45) = 0.25959; and both invert
+    # tests/render_pbr.py's encoders (written apart from the package) to rounding error
+    from render_pbr import _encode
+
+    from bouncebayes.tracking._tone import decode, decode_table
+
+    assert decode(127.5, "srgb") / 255 == pytest.approx(0.214041, abs=1e-6)
+    assert decode(127.5, "rec709") / 255 == pytest.approx(0.259589, abs=1e-6)
+    assert decode(127.5, 2.2) / 255 == pytest.approx(0.5**2.2)
+    x = np.linspace(0.0, 1.0, 1001)
+    for curve in ("srgb", "rec709"):
+        assert np.allclose(decode(255 * _encode(x, curve), curve), 255 * x, atol=1e-9)
+    assert decode_table("linear") is None
+    table = decode_table("srgb")
+    assert table.dtype == np.uint8 and table[0] == 0 and table[255] == 255
+    assert table[128] == 55 and np.all(np.diff(table.astype(int)) >= 0)
+
+
+@pytest.mark.parametrize("value", ["sRGB", "gamma", 0.5, 5, True, [2.2]])
+def test_a_tone_curve_not_known_is_refused(value):
+    with pytest.raises(ValueError, match=r"`tone_curve` must be one of linear, srgb, rec709 "
+                                         r"or a gamma from 1 to 4.*got"):
+        TrackerConfig(tone_curve=value)
+    assert TrackerConfig(tone_curve="2.2").tone_curve == 2.2
+    assert TrackerConfig().tone_curve is None  # not given: taken as linear, and warned of
+
+
+@pytest.mark.parametrize("tone, light", [("srgb", {}), ("rec709", DARK)],
+                         ids=["srgb-bright", "rec709-dark"])
+def test_the_scale_of_footage_stored_through_a_tone_curve(tone, light):
+    # a 10 px ball blurred by 0.7 px, its frames stored through the camera's tone curve
+    # (tests/render_pbr.py; truth: the renderer's radius). Taken as light, the blurred edge's
+    # mixed pixels are off their share (a bright ball larger, a dark one smaller): measured
+    # +2.16 % (sRGB, side-lit) and -4.00 % (BT.709, dark ball); decoded (tone_curve) -0.02 and
+    # +0.14 %. The same scenes stored linearly: -0.07 / 0.00 % taken as light, -4.7 / +4.1 %
+    # wrongly decoded
+    from render_pbr import render
+
+    shot = pbr_shot(10.0, 0.7, 0.0, tone=tone, seed=3, **light)
+    frames = render(shot)
+    taken = track_ball(frames).ball_radius / 10.0 - 1.0
+    decoded = track_ball(frames, config=TrackerConfig(tone_curve=tone)).ball_radius / 10.0 - 1.0
+    assert abs(taken) > 0.015 and (taken > 0) == (tone == "srgb")
+    assert abs(decoded) < 0.005
+
+
 @pytest.mark.parametrize("light, seed", [((-0.15, 0.25, 0.95), 6), ((0.0, 0.0, 1.0), 7)],
                          ids=["lit-from-above", "frontal-light"])
 def test_the_papers_camera(tmp_path, capsys, light, seed):
@@ -748,12 +796,23 @@ def test_the_papers_camera(tmp_path, capsys, light, seed):
     assert "give --reference" in record["ball"]["warning"]
     if seed == 7:
         surface = ",".join(f"{v:g}" for v in (x1, y1, x2, y2))
-        for scale, warned in ((["--ball-diameter", f"{shot.diameter_m}"], True),
-                              (["--reference", "0,0,100,0,0.256,0.0005"], False)):
+        # an MJPEG file scaled from the ball's diameter, its tone curve not given: warned
+        # that it was taken as linear (tracking.tone_curve_warning); given, or scaled from a
+        # length in the scene, not
+        diameter = ["--ball-diameter", f"{shot.diameter_m}"]
+        for scale, warned, toned in ((diameter, True, True),
+                                     ([*diameter, "--tone-curve", "linear"], True, False),
+                                     (["--reference", "0,0,100,0,0.256,0.0005"], False, False)):
             assert run_cli(["track", str(path), "--out", str(tmp_path / "cli"), "--fps",
                             "1000", "--surface", surface, *scale]) == 0
             printed = capsys.readouterr().out
             assert ("warning: the ball is" in printed) == warned, printed
+            assert ("warning: the frames were taken as linear" in printed) == toned, printed
+            kept = json.loads((tmp_path / "cli" / "casio.track.json").read_text("utf-8"))
+            assert kept["tone_curve"] == ("linear" if "--tone-curve" in scale
+                                          else "linear (not given)")
+            assert kept["settings"]["tone_curve"] == kept["tone_curve"]
+            assert (kept["tone_curve_warning"] is not None) == toned
     fit = fit_kinematics(read_trajectory(written["trajectory"]))
     speed_sd = math.hypot(fit.rebound_speed_se, fit.rebound_speed * fit.scale_rel_sd)
     assert abs(fit.rebound_speed - shot.throw.rebound_speed()) < 3 * speed_sd
@@ -969,14 +1028,16 @@ def test_run_writes_the_same_tracking_record_as_track(noisy, tmp_path, capsys):
     write_video(frames, data / "throw.avi", 1000.0)
     stage = tmp_path / "stage"
     experiment = SimpleNamespace(ball=SimpleNamespace(diameter=scene.ball_diameter))
-    folder = _track_videos(data, experiment, stage, print, {"fps": None, "surface": None}, False)
+    folder = _track_videos(data, experiment, stage, print, {"fps": None, "surface": None,
+                                                            "tone_curve": None}, False)
     run_record = json.loads((folder / "throw.track.json").read_text())
     x1, y1, x2, y2 = scene.surface_points()
     assert run_cli(["track", str(data / "throw.avi"), "--out", str(tmp_path / "out")]) == 0
     track_record = json.loads((tmp_path / "out" / "throw.track.json").read_text())
     track_record.pop("provenance")
     assert set(run_record) == set(track_record)
-    for key in ("calibration", "surface", "ball", "quality", "gravity"):
+    for key in ("calibration", "surface", "ball", "quality", "gravity", "tone_curve",
+                "tone_curve_warning"):
         assert run_record[key] == track_record[key]
     assert run_record["calibration"]["relative_sd"] > 0
     assert (stage / "tracking" / "throw.overlay.png").exists()

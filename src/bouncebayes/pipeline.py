@@ -85,32 +85,40 @@ def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], Non
                                    **fit_kwargs)
 
 
+def _warnings(video, record: Path) -> dict[str, str | None]:
+    """What the tracking of one video warns of (None: nothing), which `run` says once for all
+    the videos: the scale (the record's ``ball.warning``), the compression, the tone curve, and
+    the flights' fall against the scale (``record``: its ``<name>.track.json``; e.g. a file
+    whose frame rate is wrong)."""
+    from .tracking import compression_warning, radius_warning, tone_curve_warning
+
+    check = json.loads(record.read_text(encoding="utf-8"))["gravity"]
+    fell = None if check is None or check["agrees"] else \
+        check["summary"].replace("\n  warning: ", ": ")
+    return {"scale": radius_warning(video.track), "compression": compression_warning(video.source),
+            "tone curve": tone_curve_warning(video), "fall": fell}
+
+
 def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
                   progress: bool) -> Path:
     """Track every video (or image-sequence folder) of ``data`` into ``stage/trajectories``,
     with an overlay image per video in ``stage/tracking``; unusable videos are listed.
-    ``video``: ``fps`` and ``surface`` (``"X1,Y1,X2,Y2"`` or None: detected), as :func:`run`."""
-    from .tracking import (
-        Surface,
-        compression_warning,
-        radius_warning,
-        track_video,
-        write_track_files,
-    )
+    ``video``: ``fps``, ``surface`` (``"X1,Y1,X2,Y2"`` or None: detected) and ``tone_curve``,
+    as :func:`run`."""
+    from .tracking import Surface, TrackerConfig, tone_curve_label, track_video, write_track_files
 
     fps = video["fps"]
     surface = None if video["surface"] is None else Surface.from_text(video["surface"])
+    config = TrackerConfig(tone_curve=video["tone_curve"])
 
     inputs = video_inputs(data)
     folder = stage / "trajectories"
     tracked = 0
-    warned: list[tuple[str, str]] = []  # (video, the scale's warning) (tracking record)
-    coded: list[tuple[str, str]] = []   # (video, the compression's warning)
-    fell: list[tuple[str, str]] = []    # (video, its flights' fall against its scale)
+    said: dict[str, list[tuple[str, str]]] = {}  # kind -> (video, its warning) (_warnings)
     for path in _bar(inputs, progress, "videos"):
         try:
             tracked_video = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter,
-                                        surface=surface)
+                                        surface=surface, config=config)
         except InputFileError as exc:
             log(f"  skipped: {exc}")
             continue
@@ -120,19 +128,16 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
                                   settings={"fps": fps,
                                             "ball_diameter_m": experiment.ball.diameter,
                                             "surface": video["surface"], "polarity": "auto",
+                                            "tone_curve": tone_curve_label(config.tone_curve),
                                             "background": "per-pixel median of frames"})
-        check = json.loads(files["record"].read_text(encoding="utf-8"))["gravity"]
-        if check is not None and not check["agrees"]:  # e.g. one file's frame rate is wrong
-            fell.append((path.name, check["summary"].replace("\n  warning: ", ": ")))
-        if (warning := radius_warning(tracked_video.track)) is not None:
-            warned.append((path.name, warning))
-        if (warning := compression_warning(tracked_video.source)) is not None:
-            coded.append((path.name, warning))
+        for kind, warning in _warnings(tracked_video, files["record"]).items():
+            if warning is not None:
+                said.setdefault(kind, []).append((path.name, warning))
         tracked += 1
-    for said in (warned, coded, fell):  # one line, not one a video: one camera
-        if said:
-            log(f"  warning, {len(said)} of {tracked} videos (first {said[0][0]}): "
-                f"{said[0][1]}")
+    for kind in ("scale", "compression", "tone curve", "fall"):  # one line, not one a video:
+        if kind in said:                                           # one camera
+            first, words = said[kind][0]
+            log(f"  warning, {len(said[kind])} of {tracked} videos (first {first}): {words}")
     if not tracked:
         raise InputFileError(data, "no video could be tracked (each is listed above with the "
                                    "reason)")
@@ -187,8 +192,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         noise: str | None = None, discrepancy: str | None = None, progress: bool = False,
         log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
-        surface: str | None = None, argv: Sequence[str] | None = None,
-        figure_formats: Sequence[str] = ("png",), memory_budget: int | None = None,
+        surface: str | None = None, tone_curve: str | float | None = None,
+        argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",), memory_budget: int | None = None,
         population: str | None = None) -> RunOutcome:
     """Run every stage into the run folder ``out``, which changes only if all succeed.
 
@@ -210,6 +215,9 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
             file's).
         surface: videos: two pixel points on the surface line of every video,
             ``"X1,Y1,X2,Y2"`` (one camera set-up); None: detected in each.
+        tone_curve: videos: how the camera stored light as grey levels
+            (:class:`bouncebayes.tracking.TrackerConfig`; None: not given, taken as linear);
+            the frames are decoded to light.
         argv: the command line, recorded in the provenance of every file.
         figure_formats: the files of each figure: PNG always, and "svg" or "pdf" if asked.
         memory_budget: as :func:`bouncebayes.inference.infer` (bytes; its default if None).
@@ -218,11 +226,14 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     """
     out, data, experiment_path = Path(out), Path(data), Path(experiment_path)
     check_run_folder(out)
+    from .tracking import TrackerConfig
+
+    tone_curve = TrackerConfig(tone_curve=tone_curve).tone_curve  # checked before any work
     record = provenance(inputs={"experiment": experiment_path, "data": data, "truth": truth},
                         seed=seed, argv=argv, config={
                             "likelihood": likelihood, "sampler": sampler, "noise": noise,
                             "discrepancy": discrepancy, "sampler_config": config, "fps": fps,
-                            "surface": surface,
+                            "surface": surface, "tone_curve": tone_curve,
                             "figure_formats": list(figure_formats),
                             "memory_budget": memory_budget})
     settings = dict(likelihood=likelihood, sampler=sampler, seed=seed, config=config,
@@ -235,7 +246,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     with staged_output(out, "folder") as stage:
         with contextlib.ExitStack() as background:
             result, prop = _analyse(experiment_path, data, stage, out, settings, times, log,
-                                    {"fps": fps, "surface": surface}, truth, background)
+                                    {"fps": fps, "surface": surface, "tone_curve": tone_curve},
+                                    truth, background)
             report = _draw(result, prop, stage, times, log, record, figure_formats, progress)
         # the trial table keeps what its kinematics recorded (settings, inputs, the scale's
         # check against the flights' fall), which `bouncebayes report` shows again

@@ -6,8 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._common import (add_figure_formats, add_sampler_arguments, check_out_folder, flag_names,
-                      inference_options, log, real, sampler_config, show_progress)
+from ._common import (add_figure_formats, add_sampler_arguments, add_tone_curve, check_out_folder,
+                      flag_names, inference_options, log, real, sampler_config, show_progress)
 
 HELP = "the whole job: data -> kinematics -> inference -> propagation -> figures -> report"
 DESCRIPTION = ("Run every stage on DATA and put all results in DIR: trial table, posterior.nc, "
@@ -45,6 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="videos: two pixel points on the surface line, the same in every video "
                         "(one camera set-up); if not given, it is detected in each video as the "
                         "longest straight edge of its background that the ball does not cross")
+    add_tone_curve(p)
     add_figure_formats(p)
     add_sampler_arguments(p)
 
@@ -100,7 +101,8 @@ def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | N
     config = sampler_config(args, experiment)
     outcome = run(experiment, data, args.out, sampler=args.sampler, seed=args.seed,
                   config=config, progress=show_progress(args), log=log, truth=truth,
-                  fps=getattr(args, "fps", None), surface=surface, argv=args.argv,
+                  fps=getattr(args, "fps", None), surface=surface,
+                  tone_curve=getattr(args, "tone_curve", None), argv=args.argv,
                   figure_formats=args.figure_formats, **inference_options(args))
     print(flag_names(outcome.table, args.flags))
     print(flag_names(outcome.verdict, args.flags))

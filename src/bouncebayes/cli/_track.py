@@ -15,8 +15,8 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from ._common import (Formatter, add_out_folder, add_quiet, check_out_folder, real, record,
-                      show_progress)
+from ._common import (Formatter, add_out_folder, add_quiet, add_tone_curve, check_out_folder,
+                      real, record, show_progress)
 
 HELP = "track the ball in high-speed videos and write plane-frame trajectories"
 DESCRIPTION = ("Find the ball in every frame of each video (sub-pixel; background model + "
@@ -68,6 +68,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--background", type=Path, metavar="IMAGE",
                    help="an image of the scene without the ball; if not given, the per-pixel "
                         "median of frames (give one if the ball rests or moves slowly)")
+    add_tone_curve(p)
     add_quiet(p)
 
 
@@ -99,7 +100,7 @@ def _settings(args: argparse.Namespace) -> dict:
     from ..tracking import Surface, TrackerConfig
 
     config = TrackerConfig(polarity=args.polarity, min_contrast=args.min_contrast,
-                           threshold_sigma=args.threshold_sigma)
+                           threshold_sigma=args.threshold_sigma, tone_curve=args.tone_curve)
     reference = surface = None
     if args.reference is not None:
         names: tuple[str, ...] = ("X1", "Y1", "X2", "Y2", "METRES")
@@ -194,8 +195,11 @@ def write_outputs(result, out: Path, args: argparse.Namespace) -> dict[str, Path
 
 def settings_record(args: argparse.Namespace) -> dict:
     """The tracker's options as the record stores them."""
+    from ..tracking import tone_curve_label
+
     return {"polarity": args.polarity, "min_contrast": args.min_contrast,
             "threshold_sigma": args.threshold_sigma, "fps": args.fps,
+            "tone_curve": tone_curve_label(args.tone_curve),
             "ball_diameter_m": None if args.reference else args.ball_diameter,
             "reference": args.reference, "surface": args.surface,
             "background": str(args.background) if args.background else
@@ -206,7 +210,7 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
     """What was found in one video, and where it went (and a warning where the scale comes
     from the ball's radius and that is unreliable or uncertain, and where the frames are
     strongly compressed); ``gravity``: the flights' fall against the scale, in words."""
-    from ..tracking import EDGE_FIT, compression_warning, radius_warning
+    from ..tracking import EDGE_FIT, compression_warning, radius_warning, tone_curve_warning
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, found = len(tr.found), int(tr.found.sum())
@@ -222,4 +226,5 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
             + (f"\n  warning: {warning}" if cal.source != "reference"
                and (warning := radius_warning(tr)) else "")
             + (f"\n  warning: {coded}" if (coded := compression_warning(src)) else "")
+            + (f"\n  warning: {tone}" if (tone := tone_curve_warning(result)) else "")
             + (f"\n  {gravity}" if gravity else ""))

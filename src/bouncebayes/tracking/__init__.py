@@ -71,6 +71,9 @@ from ._output import PAPER_BALL_DIAMETER as PAPER_BALL_DIAMETER
 from ._output import TrackedVideo as TrackedVideo
 from ._output import compression_warning as compression_warning
 from ._output import radius_warning as radius_warning
+from ._output import tone_curve_warning as tone_curve_warning
+from ._tone import TONE_CURVES as TONE_CURVES
+from ._tone import tone_curve_label as tone_curve_label
 from ._output import overlay_image as overlay_image
 from ._output import track_record as track_record
 from ._output import track_video as track_video
@@ -94,6 +97,7 @@ __all__ = ["CENTROID", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND"
            "TrackerConfig", "VideoSource", "background_model", "compression_warning",
            "detect_surface",
            "overlay_image", "plane_axes", "radius_warning", "read_frames", "read_image",
+           "TONE_CURVES", "tone_curve_label", "tone_curve_warning",
            "to_plane_frame",
            "track_ball", "track_record", "track_video", "warm_kernels", "write_track_files"]
 

@@ -26,6 +26,7 @@ from ._geometry import (
     to_plane_frame,
 )
 from ._measure import CENTROID, EDGE_FIT
+from ._tone import tone_curve_label
 from ._track import Track, TrackerConfig, track_ball
 from ._video import VideoSource, read_frames, read_image
 
@@ -313,6 +314,23 @@ def compression_warning(source: VideoSource) -> str | None:
             "and film with less compression if you can")
 
 
+def tone_curve_warning(video: TrackedVideo) -> str | None:
+    """A sentence where the frames were taken as linear in light without being told
+    (``TrackerConfig.tone_curve`` None), the scale comes from the ball's diameter and the file is lossy-coded (MJPEG,
+    MPEG-4, H.264, JPEG frames: what consumer cameras write, most of them through a tone curve,
+    which the file does not say); None otherwise."""
+    src = video.source
+    if video.track.tone_curve is not None or video.calibration.source == "reference" \
+            or (src.jpeg_quality is None and src.bits_per_pixel is None):
+        return None
+    return ("the frames were taken as linear in light (no --tone-curve given); a camera that stores them through a "
+            "tone curve (most consumer cameras: sRGB or BT.709) makes a bright ball look "
+            "1-5 % larger and a dark one 2-8 % smaller under lens blur (rendered balls of "
+            "10-15 px; up to 15 % at 5 px), beyond the --ball-diameter scale's stated "
+            "uncertainty: give the camera's curve with "
+            "--tone-curve (srgb, rec709 or a gamma), or --reference")
+
+
 def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
     unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (blurred
@@ -349,6 +367,18 @@ def radius_warning(track: Track) -> str | None:
     return None
 
 
+def _coding_record(video: TrackedVideo) -> dict[str, object]:
+    """The track record's entries on how the frames were stored: the JPEG quality of MJPEG or
+    JPEG frames (None: not JPEG-coded, or not read), the video file's bits per pixel (None: a
+    folder of images) and a warning where low; the tone curve the frames were decoded by, and a
+    warning where it was taken as linear for a lossy-coded file scaled from the ball."""
+    src = video.source
+    return {"jpeg_quality": src.jpeg_quality, "bits_per_pixel": _optional(src.bits_per_pixel, 4),
+            "compression_warning": compression_warning(src),
+            "tone_curve": tone_curve_label(video.track.tone_curve),
+            "tone_curve_warning": tone_curve_warning(video)}
+
+
 def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) -> dict:
     """The tracking record of one video (``<name>.track.json``): input, calibration with its
     uncertainty, surface with its angle's uncertainty, per-frame pixels and quality, a quality
@@ -365,10 +395,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
         "bouncebayes_version": __version__,
         "frames": n, "width": w, "height": h,
         "fps": src.fps, "fps_source": src.fps_source,
-        # the JPEG quality of MJPEG or JPEG frames (None: not JPEG-coded, or not read), the
-        # video file's bits per pixel (None: a folder of images), and a warning where low
-        "jpeg_quality": src.jpeg_quality, "bits_per_pixel": _optional(src.bits_per_pixel, 4),
-        "compression_warning": compression_warning(src),
+        **_coding_record(video),
         "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
                     "threshold_grey": round(tr.threshold, 3),
                     "centre_offset_px": [round(v, 4) for v in tr.centre_offset]},
