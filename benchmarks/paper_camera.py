@@ -25,7 +25,8 @@ machine is shared).
 ``benchmarks/results/paper_camera.json`` (``--cache``: keep the decoded frames there, so that a
 rerun tracks the same frames without rendering them again; ``--tone``: the clips stored through
 that tone curve, as a consumer camera such as the paper's stores them, and tracked with it given,
-``--tone-curve``: ``benchmarks/results/paper_camera_<tone>.json``).
+``--tone-curve``: ``benchmarks/results/paper_camera_<tone>.json``; with ``--as-linear`` too, tracked
+without it, as by a user who did not give it: ``paper_camera_<tone>_as_linear.json``).
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ def clip_frames(s: Shot, codec: str, name: str, tmp: Path, cache: Path | None
     return source.frames, coding
 
 
-def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path):
+def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path, as_linear: bool = False):
     """Track the frames as a video of 1000 fps (a lossless image sequence, so the same frames
     as in memory) with the ball's diameter for the scale and the renderer's surface line, the
     scale's stated SD that of the clip's own file (its ``coding``, which the image sequence
@@ -116,7 +117,8 @@ def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path):
     x1, y1, x2, y2 = s.surface_points()
     video = track_video(folder, fps=1000.0, ball_diameter=s.diameter_m,
                         surface=Surface.from_points((x1, y1), (x2, y2)),
-                        config=TrackerConfig(tone_curve=None if s.tone == "linear" else s.tone))
+                        config=TrackerConfig(tone_curve=None if s.tone == "linear" or as_linear
+                                             else s.tone))
     video = dataclasses.replace(
         video, source=dataclasses.replace(video.source, **coding),
         calibration=Calibration.from_track(s.diameter_m, video.track, **coding))
@@ -148,6 +150,7 @@ def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cache", type=Path, default=None)
     ap.add_argument("--tone", choices=("linear", "srgb", "rec709"), default="linear")
+    ap.add_argument("--as-linear", action="store_true")
     args = ap.parse_args(argv)
     rows, falls = [], []
     t0 = time.time()
@@ -160,7 +163,8 @@ def main(argv=None) -> dict:
                         name = f"{lname}-{codec}-{seed}-{sigma}" + (
                             "" if args.tone == "linear" else f"-{args.tone}")
                         frames, coding = clip_frames(s, codec, name, Path(tmp), args.cache)
-                        tr, fitted, fall = track_and_fit(frames, coding, s, Path(tmp))
+                        tr, fitted, fall = track_and_fit(frames, coding, s, Path(tmp),
+                                                         args.as_linear)
                         if fall is not None:
                             falls.append((lname, fall, fitted["scale_error_pct"]))
                         truth = s.true_centres()
@@ -183,7 +187,8 @@ def main(argv=None) -> dict:
                         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     cur = np.array([r["rms_px"] for r in rows])
     load = subprocess.run(["cat", "/proc/loadavg"], capture_output=True, text=True).stdout.split()
-    result = {"benchmark": "paper_camera", "tone": args.tone, "n_clips": len(rows), "target_px": TARGET_PX,
+    result = {"benchmark": "paper_camera", "tone": args.tone, "as_linear": args.as_linear,
+              "n_clips": len(rows), "target_px": TARGET_PX,
               "mean_rms_px": round(float(cur.mean()), 4), "max_rms_px": round(float(cur.max()), 4),
               "min_rms_px": round(float(cur.min()), 4),
               "within_target": int((cur <= TARGET_PX).sum()),
@@ -199,7 +204,8 @@ def main(argv=None) -> dict:
                           for group in ("all", *LIGHTS)},
               "load_average_1_5_15": [float(v) for v in load[:3]],
               "wall_s": round(time.time() - t0, 1), "rows": rows}
-    out = RESULTS if args.tone == "linear" else RESULTS.with_name(f"paper_camera_{args.tone}.json")
+    out = RESULTS if args.tone == "linear" else RESULTS.with_name(
+        f"paper_camera_{args.tone}{'_as_linear' if args.as_linear else ''}.json")
     out.write_text(json.dumps(result, indent=1) + "\n")
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}))
     return result

@@ -513,6 +513,7 @@ def _tracking_section(folder: str | Path) -> list[str]:
         cal, fall, q = r["calibration"], r.get("gravity"), r["quality"]
         sd = cal.get("relative_sd")
         said = [w for w in (r["ball"].get("warning"), r.get("compression_warning"),
+                            r.get("tone_curve_warning"),
                             None if fall is None or fall["agrees"] else fall["summary"]) if w]
         rows.append([path.name.removesuffix(".track.json"),
                      f"{q['found']} of {r['frames']} ({q['flagged']} flagged)",

@@ -326,9 +326,10 @@ def tone_curve_warning(video: TrackedVideo) -> str | None:
     return ("the frames were taken as linear in light (no --tone-curve given); a camera that stores them through a "
             "tone curve (most consumer cameras: sRGB or BT.709) makes a bright ball look "
             "1-5 % larger and a dark one 2-8 % smaller under lens blur (rendered balls of "
-            "10-15 px; up to 15 % at 5 px), beyond the --ball-diameter scale's stated "
-            "uncertainty: give the camera's curve with "
-            "--tone-curve (srgb, rec709 or a gamma), or --reference")
+            "10-15 px, more than the --ball-diameter scale's stated uncertainty there; up to "
+            "15 % at 5 px): give the camera's curve with --tone-curve (linear, srgb, rec709 or "
+            "a gamma; a codec's errors after the curve stay, up to ~6 % for a ball of ~5 px), "
+            "or --reference")
 
 
 def radius_warning(track: Track) -> str | None:
