@@ -143,34 +143,84 @@ def detect_surface(background: np.ndarray, *, min_length: float = 0.3,
     gradient, the image smoothed by 1.5 px) give none, again with fainter ones (the 90th), then
     both on the image smoothed by 3 px: a soft surface edge under a textured wall, smeared by
     a codec (a rendered H.264 clip: the wall's texture made a 45-degree "edge" through the
-    ball's path; the surface, a ramp of 22 grey levels over ~6 px, was found smoothed by 3 px).
+    ball's path; the surface, a ramp of 22 grey levels over ~6 px, was found smoothed by 3 px);
+    where none of those gives one, the same with gaps of ``BROKEN_GAPS`` px bridged, a step
+    only (:func:`_step_sides`).
 
     Limits: the surface must be the longest straight edge in view that the ball does not cross
     (ruler edges, table edges or the plane's far border can be picked instead: check the
     overlay, or give the points).
     """
     img = np.clip(np.asarray(background, dtype=np.float32), 0, 255).astype(np.uint8)
-    w = img.shape[1]
     ball = None if centres is None else np.asarray(centres, dtype=float).reshape(-1, 2)
     if ball is not None:
         ball = ball[np.isfinite(ball).all(axis=1)]
     tries = ((1.5, 98.0),) if ball is None else ((1.5, 98.0), (1.5, 90.0), (3.0, 98.0),
                                                  (3.0, 90.0))
     for blur, level in tries:
-        smooth = cv2.GaussianBlur(img, (0, 0), blur)
-        grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0),
-                        cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
-        high = float(np.percentile(grad, level))
-        edges = cv2.Canny(smooth, 0.5 * high, high)
-        lines = cv2.HoughLinesP(edges, 1, np.pi / 720, threshold=int(0.15 * w),
-                                minLineLength=min_length * w, maxLineGap=6)
-        segments = [] if lines is None else [tuple(float(v) for v in s)
-                                             for s in lines.reshape(-1, 4)]
+        segments, edges, _ = _segments(img, blur, level, BROKEN_GAPS[0], min_length)
         if ball is not None:
             segments = [s for s in segments if _beside(s, ball, radius)]
         if segments:
             return _refined(max(segments, key=lambda s: math.dist(s[:2], s[2:])), edges)
+    if ball is None:
+        return None
+    # none: a surface edge broken into pieces by a textured wall's light and dark patches
+    # (tests/render_pbr.py's default wall, 50 +- 10 grey levels, over a plane of 30: Canny
+    # kept 43-52 % of the edge's length). Bridging longer gaps joins the wall's texture into
+    # long "lines" too, so those must be steps: the same side brighter along SAME_SIDE of them
+    # (the surface 1.0, the texture's 0.5-0.6)
+    for gap in BROKEN_GAPS[1:]:
+        for blur, level in tries:
+            segments, edges, smooth = _segments(img, blur, level, gap, min_length)
+            segments = [s for s in segments
+                        if _beside(s, ball, radius) and _step_sides(s, smooth) >= SAME_SIDE]
+            if segments:
+                return _refined(max(segments, key=lambda s: math.dist(s[:2], s[2:])), edges)
     return None
+
+
+# the gaps (px) the line search bridges: the first always, the others where it finds no
+# surface, for a step only (detect_surface)
+BROKEN_GAPS = (6, 12, 20)
+SAME_SIDE = 0.9
+
+
+def _segments(img: np.ndarray, blur: float, level: float, gap: int, min_length: float
+              ) -> tuple[list[tuple[float, ...]], np.ndarray, np.ndarray]:
+    """Straight segments of ``img`` (uint8) spanning ``min_length`` of its width: Canny edges of
+    the image smoothed by ``blur`` px, the high threshold at the ``level`` percentile of the
+    gradient, then a probabilistic Hough transform bridging ``gap`` px; and the edges and the
+    smoothed image."""
+    w = img.shape[1]
+    smooth = cv2.GaussianBlur(img, (0, 0), blur)
+    grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    high = float(np.percentile(grad, level))
+    edges = cv2.Canny(smooth, 0.5 * high, high)
+    lines = cv2.HoughLinesP(edges, 1, np.pi / 720, threshold=int(0.15 * w),
+                            minLineLength=min_length * w, maxLineGap=gap)
+    segments = [] if lines is None else [tuple(float(v) for v in s) for s in lines.reshape(-1, 4)]
+    return segments, edges, smooth
+
+
+def _step_sides(segment, smooth: np.ndarray, offset: float = 3.0) -> float:
+    """The fraction of the points along ``segment`` (one a pixel) where the same side of it is
+    the brighter, ``smooth`` sampled ``offset`` px either side (bilinear): 1 for a step, ~0.5
+    for a line that a wall's texture makes."""
+    x1, y1, x2, y2 = segment
+    length = math.dist((x1, y1), (x2, y2))
+    a = np.linspace(0.0, 1.0, max(int(length), 2))
+    u, v = x1 + a * (x2 - x1), y1 + a * (y2 - y1)
+    nu, nv = -(y2 - y1) / length * offset, (x2 - x1) / length * offset
+    img = smooth.astype(np.float32)
+
+    def at(du: float, dv: float) -> np.ndarray:
+        return cv2.remap(img, (u + du).astype(np.float32)[None, :],
+                         (v + dv).astype(np.float32)[None, :], cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_REPLICATE)[0]
+
+    diff = at(nu, nv) - at(-nu, -nv)
+    return float(max(np.mean(diff > 0), np.mean(diff < 0)))
 
 
 def _beside(segment, centres: np.ndarray, radius: float) -> bool:
