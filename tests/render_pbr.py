@@ -14,6 +14,9 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   sub-sample's coverage a linear ramp one sub-pixel wide (exact area to well below 0.01 px).
 - **Exposure**: the frame integrates the scene over ``exposure / fps`` seconds centred on
   ``k / fps``: ``n_sub`` ball positions along the true parabolic path are averaged (motion blur).
+  A rolling shutter (``readout`` > 0, seconds) reads row ``j`` of ``height`` centred on
+  ``k / fps + readout j / height`` instead (the window around the ball rendered at each row's
+  time, that row kept).
 - **Lens**: a point-spread function whose SD per axis is ``sigma_px`` pixels, applied to the
   super-sampled image before pixel integration: a Gaussian (``psf="gaussian"``), or a lens out
   of focus, a uniform disk of radius ``2 sigma_px`` (``psf="disk"``, sampled 8 x 8 per
@@ -88,6 +91,7 @@ class Shot:
     sigma_px: float = 0.0
     psf: str = "gaussian"             # or "disk": out of focus (radius 2 sigma_px)
     exposure: float = 0.0             # fraction of the frame interval
+    readout: float = 0.0              # rolling shutter: s from the top row's read to the bottom's
     supersample: int = 6
     # lighting (camera frame: x right, y up, z to the camera)
     light: tuple[float, float, float] = (-0.4, 0.5, 0.77)
@@ -212,8 +216,27 @@ def render(shot: Shot) -> np.ndarray:
     margin = int(math.ceil(4 * shot.sigma_px)) + 3
     frames = np.empty((shot.n_frames, h, w), np.uint8)
     base = down(blur(wall_hi.astype(np.float32)))
+    def window(cs: np.ndarray, sl) -> np.ndarray:
+        """The window ``sl`` (super-sampled slices) with the ball at the positions ``cs``
+        averaged (the exposure), blurred and integrated over pixels."""
+        Uw, Vw, bw = U[sl], V[sl], wall_hi[sl]
+        acc = np.zeros(Uw.shape)
+        for cu, cv in cs:
+            bw_k = bw * _shadow(shot, Uw, Vw, cu, cv) if shot.shadow > 0 else bw
+            cover, rad = _ball(shot, Uw - cu, Vw - cv, sub)
+            comp = bw_k * (1 - cover) + rad * cover
+            if post is not None:
+                pw = post[sl]
+                comp = comp * (1 - pw) + 30.0 * pw
+            acc += comp
+        return down(blur((acc / len(cs)).astype(np.float32)))
+
     for k in range(shot.n_frames):
-        cs = shot.pixels(shot.plane_xy(k / shot.fps + offsets))
+        # a rolling shutter reads row j at k / fps + readout j / height: the window at every
+        # row's time, that row kept
+        late = shot.readout * np.arange(h) / h
+        cs = shot.pixels(shot.plane_xy(k / shot.fps + offsets[:, None] + late[[0, -1]]
+                                       ).reshape(-1, 2))
         img = base.copy()
         # the window reaches two margins beyond the ball: the blur's halo (one margin) is
         # pasted, the outer margin only feeds the blur
@@ -223,20 +246,13 @@ def render(shot: Shot) -> np.ndarray:
         u1, v1 = min(hi[0], w), min(hi[1], h)
         if u1 > u0 and v1 > v0:
             sl = (slice(v0 * s, v1 * s), slice(u0 * s, u1 * s))
-            Uw, Vw, bw = U[sl], V[sl], wall_hi[sl]
-            acc = np.zeros(Uw.shape)
-            for cu, cv in cs:
-                if shot.shadow > 0:
-                    bw_k = bw * _shadow(shot, Uw, Vw, cu, cv)
-                else:
-                    bw_k = bw
-                cover, rad = _ball(shot, Uw - cu, Vw - cv, sub)
-                comp = bw_k * (1 - cover) + rad * cover
-                if post is not None:
-                    pw = post[sl]
-                    comp = comp * (1 - pw) + 30.0 * pw
-                acc += comp
-            win = down(blur((acc / len(cs)).astype(np.float32)))
+            if shot.readout > 0:
+                win = np.empty((v1 - v0, u1 - u0))
+                for j in range(v0, v1):
+                    at = shot.pixels(shot.plane_xy(k / shot.fps + offsets + late[j]))
+                    win[j - v0] = window(at, sl)[j - v0]
+            else:
+                win = window(shot.pixels(shot.plane_xy(k / shot.fps + offsets)), sl)
             # the window's blur is exact away from its border: paste the inner part only
             iu0 = 0 if u0 == 0 else margin
             iv0 = 0 if v0 == 0 else margin

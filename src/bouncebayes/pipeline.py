@@ -103,8 +103,8 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
                   progress: bool) -> Path:
     """Track every video (or image-sequence folder) of ``data`` into ``stage/trajectories``,
     with an overlay image per video in ``stage/tracking``; unusable videos are listed.
-    ``video``: ``fps``, ``surface`` (``"X1,Y1,X2,Y2"`` or None: detected) and ``tone_curve``,
-    as :func:`run`."""
+    ``video``: ``fps``, ``surface`` (``"X1,Y1,X2,Y2"`` or None: detected), ``tone_curve`` and
+    ``readout``, as :func:`run`."""
     from .tracking import Surface, TrackerConfig, tone_curve_label, track_video, write_track_files
 
     fps = video["fps"]
@@ -118,7 +118,8 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
     for path in _bar(inputs, progress, "videos"):
         try:
             tracked_video = track_video(path, fps=fps, ball_diameter=experiment.ball.diameter,
-                                        surface=surface, config=config)
+                                        surface=surface, config=config,
+                                        readout=video.get("readout", 0.0))
         except InputFileError as exc:
             log(f"  skipped: {exc}")
             continue
@@ -129,6 +130,7 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
                                             "ball_diameter_m": experiment.ball.diameter,
                                             "surface": video["surface"], "polarity": "auto",
                                             "tone_curve": tone_curve_label(config.tone_curve),
+                                            "readout_s": video.get("readout", 0.0),
                                             "background": "per-pixel median of frames"})
         for kind, warning in _warnings(tracked_video, files["record"]).items():
             if warning is not None:
@@ -193,7 +195,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         log: Callable[[str], None] = print,
         truth: str | Path | None = None, fps: float | None = None,
         surface: str | None = None, tone_curve: str | float | None = None,
-        argv: Sequence[str] | None = None, figure_formats: Sequence[str] = ("png",), memory_budget: int | None = None,
+        readout: float = 0.0, argv: Sequence[str] | None = None,
+        figure_formats: Sequence[str] = ("png",), memory_budget: int | None = None,
         population: str | None = None) -> RunOutcome:
     """Run every stage into the run folder ``out``, which changes only if all succeed.
 
@@ -218,6 +221,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
         tone_curve: videos: how the camera stored light as grey levels
             (:class:`bouncebayes.tracking.TrackerConfig`; None: not given, taken as linear);
             the frames are decoded to light.
+        readout: videos: a rolling shutter's readout time, s (0: a global shutter); each
+            centre is timed by its row (:func:`bouncebayes.tracking.to_plane_frame`).
         argv: the command line, recorded in the provenance of every file.
         figure_formats: the files of each figure: PNG always, and "svg" or "pdf" if asked.
         memory_budget: as :func:`bouncebayes.inference.infer` (bytes; its default if None).
@@ -233,7 +238,7 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
                         seed=seed, argv=argv, config={
                             "likelihood": likelihood, "sampler": sampler, "noise": noise,
                             "discrepancy": discrepancy, "sampler_config": config, "fps": fps,
-                            "surface": surface, "tone_curve": tone_curve,
+                            "surface": surface, "tone_curve": tone_curve, "readout": readout,
                             "figure_formats": list(figure_formats),
                             "memory_budget": memory_budget})
     settings = dict(likelihood=likelihood, sampler=sampler, seed=seed, config=config,
@@ -246,7 +251,8 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     with staged_output(out, "folder") as stage:
         with contextlib.ExitStack() as background:
             result, prop = _analyse(experiment_path, data, stage, out, settings, times, log,
-                                    {"fps": fps, "surface": surface, "tone_curve": tone_curve},
+                                    {"fps": fps, "surface": surface, "tone_curve": tone_curve,
+                                     "readout": readout},
                                     truth, background)
             report = _draw(result, prop, stage, times, log, record, figure_formats, progress)
         # the trial table keeps what its kinematics recorded (settings, inputs, the scale's

@@ -171,6 +171,15 @@ def add_tone_curve(p: argparse.ArgumentParser) -> None:
                         "lossy-coded files then get a warning)")
 
 
+def add_readout(p: argparse.ArgumentParser) -> None:
+    """``--readout``: a rolling shutter's readout time."""
+    p.add_argument("--readout", type=real, default=0.0, metavar="SECONDS",
+                   help="a rolling shutter (most consumer CMOS cameras): the time the camera "
+                        "takes to read a frame from its top row to its bottom, at most the frame "
+                        "interval; each ball centre is then timed by its row. 0: a global "
+                        "shutter")
+
+
 def add_quiet(p: argparse.ArgumentParser) -> None:
     """``--quiet``: no progress bar."""
     p.add_argument("--quiet", action="store_true",

@@ -6,8 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._common import (add_figure_formats, add_sampler_arguments, add_tone_curve, check_out_folder,
-                      flag_names, inference_options, log, real, sampler_config, show_progress)
+from ._common import (add_figure_formats, add_readout, add_sampler_arguments, add_tone_curve,
+                      check_out_folder, flag_names, inference_options, log, real,
+                      sampler_config, show_progress)
 
 HELP = "the whole job: data -> kinematics -> inference -> propagation -> figures -> report"
 DESCRIPTION = ("Run every stage on DATA and put all results in DIR: trial table, posterior.nc, "
@@ -46,6 +47,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "(one camera set-up); if not given, it is detected in each video as the "
                         "longest straight edge of its background that the ball does not cross")
     add_tone_curve(p)
+    add_readout(p)
     add_figure_formats(p)
     add_sampler_arguments(p)
 
@@ -93,6 +95,7 @@ def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | N
     check_out_folder("--out", args.out)
     if getattr(args, "fps", None) is not None:
         check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
+    check_scalar("--readout", getattr(args, "readout", 0.0), unit="s", low=0.0)
     surface = getattr(args, "surface", None)
     if surface is not None:
         from ..tracking import Surface
@@ -102,7 +105,8 @@ def _run(experiment: Path, data: Path, args: argparse.Namespace, truth: Path | N
     outcome = run(experiment, data, args.out, sampler=args.sampler, seed=args.seed,
                   config=config, progress=show_progress(args), log=log, truth=truth,
                   fps=getattr(args, "fps", None), surface=surface,
-                  tone_curve=getattr(args, "tone_curve", None), argv=args.argv,
+                  tone_curve=getattr(args, "tone_curve", None),
+                  readout=getattr(args, "readout", 0.0), argv=args.argv,
                   figure_formats=args.figure_formats, **inference_options(args))
     print(flag_names(outcome.table, args.flags))
     print(flag_names(outcome.verdict, args.flags))

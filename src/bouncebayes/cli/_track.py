@@ -15,15 +15,16 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from ._common import (Formatter, add_out_folder, add_quiet, add_tone_curve, check_out_folder,
-                      real, record, show_progress)
+from ._common import (Formatter, add_out_folder, add_quiet, add_readout, add_tone_curve,
+                      check_out_folder, real, record, show_progress)
 
 HELP = "track the ball in high-speed videos and write plane-frame trajectories"
 DESCRIPTION = ("Find the ball in every frame of each video (sub-pixel; background model + "
                "coverage centroid, or a disk fit where the ball is cut by the frame edge), "
                "convert pixels to metres and rotate into the plane frame: x along the surface in "
                "the direction of travel, y along its outward normal. Writes DIR/<name>.csv "
-               "(t,x,y in s and m, found frames only; t = frame index / fps), "
+               "(t,x,y in s and m, found frames only; t = frame index / fps, plus the centre's row's "
+               "share of a rolling shutter's --readout), "
                "with the per-frame quality columns residual, visible and flag (flagged frames are "
                "left out by the kinematics), DIR/<name>.overlay.png (positions over a "
                "superposition of frames; flagged frames in magenta) and DIR/<name>.track.json "
@@ -69,6 +70,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="an image of the scene without the ball; if not given, the per-pixel "
                         "median of frames (give one if the ball rests or moves slowly)")
     add_tone_curve(p)
+    add_readout(p)
     add_quiet(p)
 
 
@@ -118,8 +120,10 @@ def _settings(args: argparse.Namespace) -> dict:
     if args.fps is not None:
         check_scalar("--fps", args.fps, unit="frames/s", low=0.0, low_open=True)
     check_scalar("--ball-diameter", args.ball_diameter, unit="m", low=0.0, low_open=True)
+    check_scalar("--readout", args.readout, unit="s", low=0.0)
     return dict(fps=args.fps, config=config, ball_diameter=args.ball_diameter,
-                reference=reference, surface=surface, background=args.background)
+                reference=reference, surface=surface, background=args.background,
+                readout=args.readout)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -199,7 +203,7 @@ def settings_record(args: argparse.Namespace) -> dict:
 
     return {"polarity": args.polarity, "min_contrast": args.min_contrast,
             "threshold_sigma": args.threshold_sigma, "fps": args.fps,
-            "tone_curve": tone_curve_label(args.tone_curve),
+            "tone_curve": tone_curve_label(args.tone_curve), "readout_s": args.readout,
             "ball_diameter_m": None if args.reference else args.ball_diameter,
             "reference": args.reference, "surface": args.surface,
             "background": str(args.background) if args.background else

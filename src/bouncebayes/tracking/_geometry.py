@@ -293,13 +293,19 @@ def plane_axes(track: Track, surface: Surface) -> tuple[np.ndarray, np.ndarray]:
 
 
 def to_plane_frame(track: Track, calibration: Calibration, surface: Surface,
-                   fps: float) -> PlaneTrajectory:
+                   fps: float, readout: float = 0.0) -> PlaneTrajectory:
     """Found centres in metres, ``x`` along the surface from the first found position, ``y``
-    the height of the ball centre above the surface line."""
+    the height of the ball centre above the surface line; each at the time frame ``k``'s
+    rows through its centre were read: ``k / fps``, plus ``readout v / height`` for a rolling
+    shutter that reads the ``height`` rows top to bottom in ``readout`` seconds (``v`` the
+    centre's row, px from the top; 0: a global shutter). To first order the centre of a ball
+    so read, sheared by its motion, is where the ball was when its centre's row was read."""
     fps = check_scalar("fps", fps, unit="frames/s", low=0.0, low_open=True)
+    readout = check_scalar("readout", readout, unit="s", low=0.0, high=1.0 / fps)
     e, n = plane_axes(track, surface)
     k = np.flatnonzero(track.found)
     rel = track.centre[k] - np.asarray(surface.point)
     x, y = rel @ e, rel @ n
     s = calibration.metres_per_px
-    return PlaneTrajectory(t=k / fps, x=(x - x[0]) * s, y=y * s)
+    t = k / fps + readout * track.centre[k, 1] / track.background.shape[0]
+    return PlaneTrajectory(t=t, x=(x - x[0]) * s, y=y * s)

@@ -187,7 +187,8 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
                 reference: tuple[Sequence[float], Sequence[float], float]
                 | tuple[Sequence[float], Sequence[float], float, float | None] | None = None,
                 surface: Surface | None = None,
-                background: np.ndarray | str | os.PathLike | None = None) -> TrackedVideo:
+                background: np.ndarray | str | os.PathLike | None = None,
+                readout: float = 0.0) -> TrackedVideo:
     """Read, track, calibrate and rotate one video into the plane frame.
 
     Arguments:
@@ -200,12 +201,18 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         reference: ``(p1, p2, metres)`` or ``(p1, p2, metres, sd_metres)``: two pixel points a
             known distance apart, and the distance's stated standard deviation.
         surface: the surface line; default :func:`detect_surface` on the background model.
+        readout: a rolling shutter's readout time, s from the top row to the bottom (0: a
+            global shutter); each centre is timed by its row (:func:`to_plane_frame`).
 
     Raises:
         InputFileError: naming the file, for unreadable input, unknown fps, no ball found (or
             in fewer than 3 frames), no surface line detected.
     """
     source = read_frames(path, fps=fps)
+    if not 0.0 <= readout <= 1.0 / source.fps:  # before the tracking's work
+        raise InputFileError(source.path, f"a rolling shutter's readout of {readout:g} s is "
+                             f"not from 0 to the frame interval, {1.0 / source.fps:g} s at "
+                             f"{source.fps:g} frames/s")
     if isinstance(background, str | os.PathLike):
         background = _background_file(background, source)
     track = track_ball(source.frames, config=config or TrackerConfig(), background=background)
@@ -229,7 +236,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
                                  "must be the longest straight edge that the ball does not "
                                  "cross, spanning 30% of the width): give two points on it "
                                  "with --surface X1,Y1,X2,Y2")
-    trajectory = to_plane_frame(track, calibration, surface, source.fps)
+    trajectory = to_plane_frame(track, calibration, surface, source.fps, readout)
     return TrackedVideo(source=source, track=track, calibration=calibration, surface=surface,
                         trajectory=trajectory)
 
