@@ -26,7 +26,10 @@ machine is shared).
 rerun tracks the same frames without rendering them again; ``--tone``: the clips stored through
 that tone curve, as a consumer camera such as the paper's stores them, and tracked with it given,
 ``--tone-curve``: ``benchmarks/results/paper_camera_<tone>.json``; with ``--as-linear`` too, tracked
-without it, as by a user who did not give it: ``paper_camera_<tone>_as_linear.json``).
+without it, as by a user who did not give it: ``paper_camera_<tone>_as_linear.json``;
+``--readout S``: the clips read by a rolling shutter in ``S`` seconds, tracked with ``--readout``
+given: ``paper_camera_readout.json``, or with ``--as-global`` too taken as a global shutter:
+``paper_camera_readout_as_global.json``).
 """
 
 from __future__ import annotations
@@ -72,10 +75,10 @@ LIGHTS = {"test": (-0.15, 0.25, 0.95), "front": (0.0, 0.0, 1.0), "left": (-0.6, 
 TARGET_PX = 0.15
 
 
-def shot(light, seed: int, sigma: float, tone: str = "linear") -> Shot:
+def shot(light, seed: int, sigma: float, tone: str = "linear", readout: float = 0.0) -> Shot:
     return Shot(width=224, height=64, radius_px=5.0, n_frames=120, surface_v=50.0,
                 slope_deg=3.0, sigma_px=sigma, exposure=0.5, light=light, supersample=4,
-                seed=seed, tone=tone, throw=Throw(speed_in=2.0, angle_in=35.0, t_contact=0.05,
+                seed=seed, tone=tone, readout=readout, throw=Throw(speed_in=2.0, angle_in=35.0, t_contact=0.05,
                                        x_contact=0.05))
 
 
@@ -101,7 +104,8 @@ def clip_frames(s: Shot, codec: str, name: str, tmp: Path, cache: Path | None
     return source.frames, coding
 
 
-def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path, as_linear: bool = False):
+def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path, as_linear: bool = False,
+                  readout: float = 0.0):
     """Track the frames as a video of 1000 fps (a lossless image sequence, so the same frames
     as in memory) with the ball's diameter for the scale and the renderer's surface line, the
     scale's stated SD that of the clip's own file (its ``coding``, which the image sequence
@@ -118,7 +122,7 @@ def track_and_fit(frames: np.ndarray, coding: dict, s: Shot, tmp: Path, as_linea
     video = track_video(folder, fps=1000.0, ball_diameter=s.diameter_m,
                         surface=Surface.from_points((x1, y1), (x2, y2)),
                         config=TrackerConfig(tone_curve=None if s.tone == "linear" or as_linear
-                                             else s.tone))
+                                             else s.tone), readout=readout)
     video = dataclasses.replace(
         video, source=dataclasses.replace(video.source, **coding),
         calibration=Calibration.from_track(s.diameter_m, video.track, **coding))
@@ -151,6 +155,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--cache", type=Path, default=None)
     ap.add_argument("--tone", choices=("linear", "srgb", "rec709"), default="linear")
     ap.add_argument("--as-linear", action="store_true")
+    ap.add_argument("--readout", type=float, default=0.0)
+    ap.add_argument("--as-global", action="store_true")
     args = ap.parse_args(argv)
     rows, falls = [], []
     t0 = time.time()
@@ -159,12 +165,14 @@ def main(argv=None) -> dict:
             for codec in ("MJPG", "mp4v"):
                 for seed in (6, 7):
                     for sigma in (0.3, 0.6):
-                        s = shot(light, seed, sigma, args.tone)
+                        s = shot(light, seed, sigma, args.tone, args.readout)
                         name = f"{lname}-{codec}-{seed}-{sigma}" + (
-                            "" if args.tone == "linear" else f"-{args.tone}")
+                            "" if args.tone == "linear" else f"-{args.tone}") + (
+                            f"-ro{args.readout:g}" if args.readout else "")
                         frames, coding = clip_frames(s, codec, name, Path(tmp), args.cache)
-                        tr, fitted, fall = track_and_fit(frames, coding, s, Path(tmp),
-                                                         args.as_linear)
+                        tr, fitted, fall = track_and_fit(
+                            frames, coding, s, Path(tmp), args.as_linear,
+                            0.0 if args.as_global else args.readout)
                         if fall is not None:
                             falls.append((lname, fall, fitted["scale_error_pct"]))
                         truth = s.true_centres()
@@ -188,6 +196,7 @@ def main(argv=None) -> dict:
     cur = np.array([r["rms_px"] for r in rows])
     load = subprocess.run(["cat", "/proc/loadavg"], capture_output=True, text=True).stdout.split()
     result = {"benchmark": "paper_camera", "tone": args.tone, "as_linear": args.as_linear,
+              "readout_s": args.readout, "as_global": args.as_global,
               "n_clips": len(rows), "target_px": TARGET_PX,
               "mean_rms_px": round(float(cur.mean()), 4), "max_rms_px": round(float(cur.max()), 4),
               "min_rms_px": round(float(cur.min()), 4),
@@ -204,8 +213,11 @@ def main(argv=None) -> dict:
                           for group in ("all", *LIGHTS)},
               "load_average_1_5_15": [float(v) for v in load[:3]],
               "wall_s": round(time.time() - t0, 1), "rows": rows}
-    out = RESULTS if args.tone == "linear" else RESULTS.with_name(
-        f"paper_camera_{args.tone}{'_as_linear' if args.as_linear else ''}.json")
+    out = RESULTS
+    if args.tone != "linear":
+        out = out.with_name(f"paper_camera_{args.tone}{'_as_linear' if args.as_linear else ''}.json")
+    elif args.readout:
+        out = out.with_name(f"paper_camera_readout{'_as_global' if args.as_global else ''}.json")
     out.write_text(json.dumps(result, indent=1) + "\n")
     print(json.dumps({k: v for k, v in result.items() if k != "rows"}))
     return result

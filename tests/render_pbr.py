@@ -144,7 +144,14 @@ class Shot:
         return uv + np.array([0.0, self.surface_v])
 
     def true_centres(self) -> np.ndarray:
-        return self.pixels(self.plane_xy(np.arange(self.n_frames) / self.fps))
+        """Frame ``k``'s ball centre (px) at ``k / fps``; with a rolling shutter, where the ball
+        was when the row through that centre was read (``k / fps + readout v / height``, by
+        fixed-point iteration: the row moves by less than 0.01 px a step)."""
+        t = np.arange(self.n_frames) / self.fps
+        c = self.pixels(self.plane_xy(t))
+        for _ in range(6 if self.readout > 0 else 0):
+            c = self.pixels(self.plane_xy(t + self.readout * c[:, 1] / self.height))
+        return c
 
 
 def _wall(shot: Shot, u: np.ndarray, v: np.ndarray, rng_seed: int) -> np.ndarray:
