@@ -387,13 +387,22 @@ def test_run_on_videos_of_small_balls_says_once_that_the_scale_is_uncertain(tmp_
     points = ",".join(f"{v:g}" for v in scene.surface_points())
     lines.clear()
     folder = _track_videos(videos, experiment, tmp_path / "stage2", lines.append,
-                           {"fps": 1000.0, "surface": points, "tone_curve": "linear"}, False)
+                           {"fps": 1000.0, "surface": points, "tone_curve": "linear",
+                            "readout": 0.0005}, False)
     assert not any("tone curve" in line for line in lines), lines
     for name in ("b0", "b1"):
         record = json.loads((folder / f"{name}.track.json").read_text(encoding="utf-8"))
         assert record["surface"]["source"] == "points"
         assert record["settings"]["surface"] == points
         assert record["settings"]["tone_curve"] == record["tone_curve"] == "linear"
+        # `run --readout`: each centre timed by its row, k / fps + readout v / 64
+        assert record["settings"]["readout_s"] == 0.0005
+        pf = record["per_frame"]
+        found = np.flatnonzero(~np.isnan(np.array(pf["v_px"], dtype=float)))
+        rows = np.loadtxt(folder / f"{name}.csv", delimiter=",", comments="#", skiprows=1,
+                          usecols=0, ndmin=1)
+        expected = found / 1000.0 + 0.0005 * np.array(pf["v_px"], dtype=float)[found] / 64
+        assert np.abs(rows[:, None] - expected[None, :]).min(axis=1).max() < 1e-6
         assert record["surface"]["angle_deg"] == pytest.approx(
             Surface.from_text(points).angle, abs=1e-9)
 
