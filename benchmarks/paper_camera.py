@@ -78,7 +78,8 @@ TARGET_PX = 0.15
 def shot(light, seed: int, sigma: float, tone: str = "linear", readout: float = 0.0) -> Shot:
     return Shot(width=224, height=64, radius_px=5.0, n_frames=120, surface_v=50.0,
                 slope_deg=3.0, sigma_px=sigma, exposure=0.5, light=light, supersample=4,
-                seed=seed, tone=tone, readout=readout, throw=Throw(speed_in=2.0, angle_in=35.0, t_contact=0.05,
+                seed=seed, tone=tone, readout=readout,
+                throw=Throw(speed_in=2.0, angle_in=35.0, t_contact=0.05,
                                        x_contact=0.05))
 
 
@@ -215,7 +216,8 @@ def main(argv=None) -> dict:
               "wall_s": round(time.time() - t0, 1), "rows": rows}
     out = RESULTS
     if args.tone != "linear":
-        out = out.with_name(f"paper_camera_{args.tone}{'_as_linear' if args.as_linear else ''}.json")
+        suffix = "_as_linear" if args.as_linear else ""
+        out = out.with_name(f"paper_camera_{args.tone}{suffix}.json")
     elif args.readout:
         out = out.with_name(f"paper_camera_readout{'_as_global' if args.as_global else ''}.json")
     out.write_text(json.dumps(result, indent=1) + "\n")

@@ -109,7 +109,7 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
 
     fps = video["fps"]
     surface = None if video["surface"] is None else Surface.from_text(video["surface"])
-    config = TrackerConfig(tone_curve=video["tone_curve"])
+    config = TrackerConfig(tone_curve=video.get("tone_curve"))
 
     inputs = video_inputs(data)
     folder = stage / "trajectories"
@@ -231,9 +231,12 @@ def run(experiment_path: str | Path, data: str | Path, out: str | Path, *,
     """
     out, data, experiment_path = Path(out), Path(data), Path(experiment_path)
     check_run_folder(out)
+    from ._validate import check_scalar
     from .tracking import TrackerConfig
 
-    tone_curve = TrackerConfig(tone_curve=tone_curve).tone_curve  # checked before any work
+    # the videos' settings, checked before any work
+    tone_curve = TrackerConfig(tone_curve=tone_curve).tone_curve
+    readout = check_scalar("readout", readout, unit="s", low=0.0)
     record = provenance(inputs={"experiment": experiment_path, "data": data, "truth": truth},
                         seed=seed, argv=argv, config={
                             "likelihood": likelihood, "sampler": sampler, "noise": noise,

@@ -72,8 +72,6 @@ from ._output import TrackedVideo as TrackedVideo
 from ._output import compression_warning as compression_warning
 from ._output import radius_warning as radius_warning
 from ._output import tone_curve_warning as tone_curve_warning
-from ._tone import TONE_CURVES as TONE_CURVES
-from ._tone import tone_curve_label as tone_curve_label
 from ._output import overlay_image as overlay_image
 from ._output import track_record as track_record
 from ._output import track_video as track_video
@@ -87,17 +85,19 @@ from ._track import background_model as background_model
 from ._track import track_ball as track_ball
 from ._video import IMAGE_SUFFIXES as IMAGE_SUFFIXES
 from ._video import VIDEO_SUFFIXES as VIDEO_SUFFIXES
+from ._tone import TONE_CURVES as TONE_CURVES
+from ._tone import tone_curve_label as tone_curve_label
 from ._video import VideoSource as VideoSource
 from ._video import read_frames as read_frames
 from ._video import read_image as read_image
 
 __all__ = ["CENTROID", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND",
-           "PAPER_BALL_DIAMETER", "POLARITIES", "VIDEO_SUFFIXES", "Calibration",
+           "PAPER_BALL_DIAMETER", "POLARITIES", "TONE_CURVES", "VIDEO_SUFFIXES", "Calibration",
            "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
            "TrackerConfig", "VideoSource", "background_model", "compression_warning",
            "detect_surface",
            "overlay_image", "plane_axes", "radius_warning", "read_frames", "read_image",
-           "TONE_CURVES", "tone_curve_label", "tone_curve_warning",
+           "tone_curve_label", "tone_curve_warning",
            "to_plane_frame",
            "track_ball", "track_record", "track_video", "warm_kernels", "write_track_files"]
 

@@ -323,15 +323,16 @@ def compression_warning(source: VideoSource) -> str | None:
 
 def tone_curve_warning(video: TrackedVideo) -> str | None:
     """A sentence where the frames were taken as linear in light without being told
-    (``TrackerConfig.tone_curve`` None), the scale comes from the ball's diameter and the file is lossy-coded (MJPEG,
-    MPEG-4, H.264, JPEG frames: what consumer cameras write, most of them through a tone curve,
-    which the file does not say); None otherwise."""
+    (``TrackerConfig.tone_curve`` None), the scale comes from the ball's diameter and the file
+    is lossy-coded (MJPEG, MPEG-4, H.264, JPEG frames: what consumer cameras write, most of
+    them through a tone curve, which the file does not say); None otherwise."""
     src = video.source
     if video.track.tone_curve is not None or video.calibration.source == "reference" \
             or (src.jpeg_quality is None and src.bits_per_pixel is None):
         return None
-    return ("the frames were taken as linear in light (no --tone-curve given); a camera that stores them through a "
-            "tone curve (most consumer cameras: sRGB or BT.709) makes a bright ball look "
+    return ("the frames were taken as linear in light (no --tone-curve given); a camera that "
+            "stores them through a tone curve (most consumer cameras: sRGB or BT.709) makes a "
+            "bright ball look "
             "1-5 % larger and a dark one 2-8 % smaller under lens blur (rendered balls of "
             "10-15 px, more than the --ball-diameter scale's stated uncertainty there; up to "
             "15 % at 5 px): give the camera's curve with --tone-curve (linear, srgb, rec709 or "

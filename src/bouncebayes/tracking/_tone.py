@@ -6,15 +6,17 @@ the edge model (:mod:`._edge`) all rest on that. Most cameras other than raw or 
 ones store ``T(light)`` instead, with a concave tone curve ``T`` (sRGB, IEC 61966-2-1; the
 BT.709 camera curve of consumer video; or a plain power ``light^(1/gamma)``): the edge's
 mixed pixels then come out brighter than their share of the light, and a bright ball looks
-larger (a dark one smaller). Measured on ``tests/render_pbr.py``'s balls encoded with sRGB
-(docs/tracking.md §3, *the camera's tone curve*): the radius +1 to +5 % for a bright ball and
--2 to -6.5 % for a dark one under a lens blur of 0.7-1.5 px, against 0.3 % decoded.
+larger (a dark one smaller). Measured on ``tests/render_pbr.py``'s balls of 10-15 px stored
+through sRGB and BT.709 (``benchmarks/tracking_tone.py``; docs/tracking.md §3, *the camera's
+tone curve*): the radius +1 to +5 % for a bright ball and -2 to -8 % for a dark one under a
+lens blur of 0.7-1.5 px taken as linear, within 0.51 % decoded.
 
 :func:`decode_table` gives the 256-entry table that maps a stored grey level to
 ``255 T^-1(level / 255)`` rounded (uint8, so that every stage reads the frames as before); the
 rounding costs the darkest levels their resolution (sRGB: stored 0-6 become 0, 7-17 become 1,
-40 becomes 5): a dark ball's radius moved by at most 0.25 % against the frames never encoded. Written here because the curves are three lines
-each and no dependency of the package decodes them to a lookup table.
+40 becomes 5): a dark ball's radius moved by at most 0.25 % against the frames never encoded.
+Written here because the curves are three lines each and no dependency of the package decodes
+them to a lookup table.
 """
 
 from __future__ import annotations

@@ -92,8 +92,8 @@ class Track:
     ``refined``: frames whose centre is a blurred, shaded disk fitted to the frame instead of
     the coverage centroid or the disk fit at the frame edge (a small ball, :mod:`._refine`;
     the offset does not apply to them). ``tone_curve``: the camera's tone curve the frames were
-    decoded by (``TrackerConfig.tone_curve``, None: not given, taken as linear; ``background``, ``contrast``, ``noise`` and
-    ``threshold`` are in decoded grey levels).
+    decoded by (``TrackerConfig.tone_curve``, None: not given, taken as linear; ``background``,
+    ``contrast``, ``noise`` and ``threshold`` are in decoded grey levels).
     """
 
     centre: np.ndarray
