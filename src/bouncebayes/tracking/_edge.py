@@ -555,16 +555,11 @@ SATURATED = 254.5  # grey levels: a pixel at or above is saturated
 
 
 def _grow(mask: np.ndarray, steps: int) -> np.ndarray:
-    """``mask`` grown by ``steps`` px along rows and columns (a diamond)."""
-    grown = mask.copy()
-    for _ in range(steps):
-        step = grown.copy()
-        step[1:] |= grown[:-1]
-        step[:-1] |= grown[1:]
-        step[:, 1:] |= grown[:, :-1]
-        step[:, :-1] |= grown[:, 1:]
-        grown = step
-    return grown
+    """``mask`` grown by ``steps`` px along rows and columns (a diamond; SciPy's binary
+    dilation with its 4-connected cross)."""
+    from scipy.ndimage import binary_dilation
+
+    return binary_dilation(mask, iterations=steps) if steps >= 1 else mask.copy()
 
 
 def _near_saturated(img: np.ndarray, px: _Pixels, steps: int) -> np.ndarray:

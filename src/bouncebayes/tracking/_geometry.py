@@ -157,24 +157,18 @@ def detect_surface(background: np.ndarray, *, min_length: float = 0.3,
         ball = ball[np.isfinite(ball).all(axis=1)]
     tries = ((1.5, 98.0),) if ball is None else ((1.5, 98.0), (1.5, 90.0), (3.0, 98.0),
                                                  (3.0, 90.0))
-    for blur, level in tries:
-        segments, edges, _ = _segments(img, blur, level, BROKEN_GAPS[0], min_length)
-        if ball is not None:
-            segments = [s for s in segments if _beside(s, ball, radius)]
-        if segments:
-            return _refined(max(segments, key=lambda s: math.dist(s[:2], s[2:])), edges)
-    if ball is None:
-        return None
-    # none: a surface edge broken into pieces by a textured wall's light and dark patches
-    # (tests/render_pbr.py's default wall, 50 +- 10 grey levels, over a plane of 30: Canny
-    # kept 43-52 % of the edge's length). Bridging longer gaps joins the wall's texture into
-    # long "lines" too, so those must be steps: the same side brighter along SAME_SIDE of them
-    # (the surface 1.0, the texture's 0.5-0.6)
-    for gap in BROKEN_GAPS[1:]:
+    # the longer gaps only where the first finds none, for the ball's surface: an edge broken
+    # into pieces by a textured wall's light and dark patches (tests/render_pbr.py's default
+    # wall, 50 +- 10 grey levels, over a plane of 30: Canny kept 43-52 % of the edge's length).
+    # Bridging longer gaps joins the wall's texture into long "lines" too, so those must be
+    # steps: the same side brighter along SAME_SIDE of them (the surface 1.0, the texture's
+    # 0.5-0.6)
+    for gap in BROKEN_GAPS if ball is not None else BROKEN_GAPS[:1]:
         for blur, level in tries:
             segments, edges, smooth = _segments(img, blur, level, gap, min_length)
-            segments = [s for s in segments
-                        if _beside(s, ball, radius) and _step_sides(s, smooth) >= SAME_SIDE]
+            if ball is not None:
+                segments = [s for s in segments if _beside(s, ball, radius) and (
+                    gap == BROKEN_GAPS[0] or _step_sides(s, smooth) >= SAME_SIDE)]
             if segments:
                 return _refined(max(segments, key=lambda s: math.dist(s[:2], s[2:])), edges)
     return None
