@@ -5,8 +5,9 @@ Eight bounces (``tests/render_pbr.py``: independent of the tracker; radius 10 px
 are tracked with ``track_video`` (scale from the ball's edge, detected nothing: the surface is
 given), written with ``write_track_files`` and fitted with ``fit_kinematics``. For each, the
 rebound speed's z-score against the rendered truth, with the kinematics' standard error and the
-scale's stated relative SD (``scale_rel_sd``) in quadrature, and the z of the speed with the
-standard error alone (what a per-trial analysis that ignores the scale would claim); the two
+scale's stated relative SD (``scale_rel_sd``) in quadrature, the z of the speed with the
+standard error alone (what a per-trial analysis that ignores the scale would claim) and the
+rebound angle's z (its standard error; the scale does not move an angle); the two
 flights' fall (m/s^2), and the scale the eight bounces' fall gives against their mean true
 scale error (``gravity``, ``benchmarks/_gravity_check.py``).
 
@@ -83,6 +84,9 @@ def main() -> dict:
                          "z": round((fit.rebound_speed - truth) / sd, 2),
                          "z_se_only": round((fit.rebound_speed - truth) / fit.rebound_speed_se,
                                             2),
+                         "rebound_angle_z": round((fit.rebound_angle
+                                                   - shot.throw.rebound_angle())
+                                                  / fit.rebound_angle_se, 2),
                          "fall_m_s2": [round(v, 4) for v in fit.fall.value],
                          "fall_se_m_s2": [round(v, 4) for v in fit.fall.se],
                          "flagged": int(video.track.flag.sum()), "gates": gates,
@@ -93,6 +97,8 @@ def main() -> dict:
               "passed_default_gates": sum(r.get("gates") == "default" for r in rows),
               "max_abs_z": max(zs) if zs else None,
               "within_3": sum(z <= 3 for z in zs),
+              "max_abs_rebound_angle_z": max((abs(r["rebound_angle_z"]) for r in rows
+                                              if "z" in r), default=None),
               "gravity": fall_check(falls, [r["scale_error_pct"] for r in rows if "z" in r]),
               "rows": rows}
     RESULTS.write_text(json.dumps(result, indent=1) + "\n")

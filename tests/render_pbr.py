@@ -9,7 +9,10 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   z to the camera). Radiance = ``albedo * (ambient + lambert * limb)`` + ``specular``, with
   ``lambert = max(0, n . l)`` (light direction ``l``), a linear limb-darkening law
   ``limb = 1 - u (1 - n_z)``, and a Blinn-Phong lobe ``k_s max(0, n . h)^shininess``,
-  ``h = (l + z) / |l + z|``.
+  ``h = (l + z) / |l + z|``. Optionally (``mark``) a dark stripe painted on it, as
+  experimenters mark a ball to see it turn: a great circle through the axis towards the
+  camera, the albedo 80 % lower where ``|n . p| < mark / 2`` (``p`` its normal in the image
+  plane), turning at ``spin`` rad/s.
 - **Anti-aliasing**: every pixel is integrated on an ``S x S`` sub-grid (default 6), each
   sub-sample's coverage a linear ramp one sub-pixel wide (exact area to well below 0.01 px).
 - **Exposure**: the frame integrates the scene over ``exposure / fps`` seconds centred on
@@ -99,6 +102,8 @@ class Shot:
     ambient: float = 0.4
     limb_u: float = 0.3
     specular: float = 0.0             # Blinn-Phong strength (0: matte)
+    mark: float = 0.0                 # width (in n) of a dark stripe painted on the ball (0: none)
+    spin: float = 150.0               # rad/s: the stripe's turn about the axis to the camera
     shininess: float = 40.0
     gain: float = 230.0               # grey level of radiance 1
     # background (grey levels)
@@ -170,8 +175,10 @@ def _wall(shot: Shot, u: np.ndarray, v: np.ndarray, rng_seed: int) -> np.ndarray
     return img
 
 
-def _ball(shot: Shot, du: np.ndarray, dv: np.ndarray, sub: float) -> tuple[np.ndarray, ...]:
-    """Coverage and radiance (grey levels) of the ball at offsets ``(du, dv)`` from its centre."""
+def _ball(shot: Shot, du: np.ndarray, dv: np.ndarray, sub: float, t: float = 0.0
+          ) -> tuple[np.ndarray, ...]:
+    """Coverage and radiance (grey levels) of the ball at offsets ``(du, dv)`` from its centre
+    at time ``t`` (s: the painted stripe's angle)."""
     r = shot.radius_px
     d = np.hypot(du, dv)
     cover = np.clip((r - d) / sub + 0.5, 0.0, 1.0)
@@ -184,7 +191,12 @@ def _ball(shot: Shot, du: np.ndarray, dv: np.ndarray, sub: float) -> tuple[np.nd
     hx, hy, hz = lx, ly, lz + 1.0
     hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
     spec = shot.specular * np.maximum(0.0, (nx * hx + ny * hy + nz * hz) / hn) ** shot.shininess
-    radiance = shot.albedo * (shot.ambient + lam * limb) + spec
+    albedo = shot.albedo
+    if shot.mark > 0:  # a great circle through the spin axis (towards the camera), turning
+        phi = 0.6 + shot.spin * t
+        off = np.abs(-math.sin(phi) * nx + math.cos(phi) * ny)
+        albedo = albedo * (1.0 - 0.8 * np.clip((0.5 * shot.mark - off) / 0.05 + 0.5, 0.0, 1.0))
+    radiance = albedo * (shot.ambient + lam * limb) + spec
     return cover, shot.gain * radiance
 
 
@@ -223,14 +235,14 @@ def render(shot: Shot) -> np.ndarray:
     margin = int(math.ceil(4 * shot.sigma_px)) + 3
     frames = np.empty((shot.n_frames, h, w), np.uint8)
     base = down(blur(wall_hi.astype(np.float32)))
-    def window(cs: np.ndarray, sl) -> np.ndarray:
+    def window(cs: np.ndarray, sl, ts: np.ndarray) -> np.ndarray:
         """The window ``sl`` (super-sampled slices) with the ball at the positions ``cs``
-        averaged (the exposure), blurred and integrated over pixels."""
+        (times ``ts``) averaged (the exposure), blurred and integrated over pixels."""
         Uw, Vw, bw = U[sl], V[sl], wall_hi[sl]
         acc = np.zeros(Uw.shape)
-        for cu, cv in cs:
+        for (cu, cv), t in zip(cs, ts, strict=True):
             bw_k = bw * _shadow(shot, Uw, Vw, cu, cv) if shot.shadow > 0 else bw
-            cover, rad = _ball(shot, Uw - cu, Vw - cv, sub)
+            cover, rad = _ball(shot, Uw - cu, Vw - cv, sub, t)
             comp = bw_k * (1 - cover) + rad * cover
             if post is not None:
                 pw = post[sl]
@@ -256,10 +268,11 @@ def render(shot: Shot) -> np.ndarray:
             if shot.readout > 0:
                 win = np.empty((v1 - v0, u1 - u0))
                 for j in range(v0, v1):
-                    at = shot.pixels(shot.plane_xy(k / shot.fps + offsets + late[j]))
-                    win[j - v0] = window(at, sl)[j - v0]
+                    ts = k / shot.fps + offsets + late[j]
+                    win[j - v0] = window(shot.pixels(shot.plane_xy(ts)), sl, ts)[j - v0]
             else:
-                win = window(shot.pixels(shot.plane_xy(k / shot.fps + offsets)), sl)
+                ts = k / shot.fps + offsets
+                win = window(shot.pixels(shot.plane_xy(ts)), sl, ts)
             # the window's blur is exact away from its border: paste the inner part only
             iu0 = 0 if u0 == 0 else margin
             iv0 = 0 if v0 == 0 else margin

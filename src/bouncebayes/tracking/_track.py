@@ -10,7 +10,7 @@ from typing import Literal, get_args
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import SMALL_BALL_FIT, RadiusFit, spread
+from ._edge import CENTRE_FIT_BLUR, SMALL_BALL_FIT, RadiusFit, spread
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import fit_ball_radius, frame_quality
 from ._tone import check_tone_curve, decode, decode_table
@@ -90,8 +90,10 @@ class Track:
     coverage radius). ``centre_offset``: the shift (px) applied to every coverage centroid so
     that they agree with the edge fits (a constant bias of the centroid under side light).
     ``refined``: frames whose centre is a blurred, shaded disk fitted to the frame instead of
-    the coverage centroid or the disk fit at the frame edge (a small ball, :mod:`._refine`;
-    the offset does not apply to them). ``tone_curve``: the camera's tone curve the frames were
+    the coverage centroid or the disk fit at the frame edge (:mod:`._refine`: a small ball's
+    whole disk, a larger ball's rim; the centroids' offset does not apply to them);
+    ``refined_offset``: the shift (px) applied to a larger ball's refined centres so that they
+    agree with the edge fits (a small ball's: none). ``tone_curve``: the camera's tone curve the frames were
     decoded by (``TrackerConfig.tone_curve``, None: not given, taken as linear; ``background``,
     ``contrast``, ``noise`` and ``threshold`` are in decoded grey levels).
     """
@@ -110,6 +112,7 @@ class Track:
     radius_fit: RadiusFit | None = None
     centre_offset: tuple[float, float] = (0.0, 0.0)
     refined: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    refined_offset: tuple[float, float] = (0.0, 0.0)
     tone_curve: str | float | None = None
 
     @property
@@ -293,25 +296,28 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     centre, radius, method, contrast = _finish(raw, border, edge_fit, config)
     residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
                                             compiled=compiled)
-    fit, offset, refined = _fit_ball(frames, state, background is not None, centre, radius,
-                                     method, flag, config)
+    fit, offset, refined, shift = _fit_ball(frames, state, background is not None, centre,
+                                            radius, method, flag, config)
     for a in (centre, radius, method, contrast, residual, visible, flag, refined):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, radius_fit=fit,
-                 centre_offset=offset, refined=refined, tone_curve=config.tone_curve)
+                 centre_offset=offset, refined=refined, refined_offset=shift,
+                 tone_curve=config.tone_curve)
 
 
 def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
     """The fits after the search, on ``centre`` (moved in place): the edge model's radius
     (:func:`._quality.fit_ball_radius`), its centres' offset to the centroids, and the
-    small-ball centre fits (:func:`._refine.refine_centres`). They get the background with the
+    per-frame centre fits (:func:`._refine.refine_centres`). They get the background with the
     ball left out around where they look (:func:`_ball_free_background`), or the one given
-    (``given``) as it is. Returns the radius fit, the offset and the mask of refined frames."""
-    from ._refine import refine_centres, stated_centre_sd
+    (``given``) as it is. Returns the radius fit, the centroids' offset, the mask of refined
+    frames and the refined centres' offset (:attr:`Track.refined_offset`)."""
+    from ._refine import SMALL_RADIUS, refine_centres, stated_centre_sd
 
     gains = np.asarray(state.gains, np.float64)
+    shift = (0.0, 0.0)
     # a background given is taken as exact (its noise is not known)
     clean = (lambda centres: (state.bg64, np.zeros(state.bg64.shape))) if given else \
         _ball_free_background(frames, state.bg64, gains, centre, radius, config)
@@ -321,15 +327,44 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
     small = refine_centres(frames, clean, gains, centre, method, fit)
     refined = small.done
     if refined.any() and fit is not None:
-        # the refined centres' SD, not the centroids'; the small-ball fit's radius (at 5 px
-        # RMS error 1.7 % against the edge model's 3.6 %: SMALL_FIT_SYSTEMATIC_PX) and light
+        # the refined centres' SD, not the centroids'
         fit = fit._replace(centre_sd=stated_centre_sd(small.se[refined]))
-        if math.isfinite(small.radius_se):
-            fit = fit._replace(radius=small.radius, radius_se=small.radius_se,
-                               method=SMALL_BALL_FIT)
-        if small.light is not None and small.light[1] < fit.light[1]:
-            fit = fit._replace(light=small.light)
-    return fit, offset, refined
+        if fit.radius > SMALL_RADIUS:
+            # a larger ball keeps the edge model's radius, and its refined centres take the
+            # edge fits' mean position (the cut-down shading leaves a constant bias: a glossy
+            # ball's highlight 0.1-0.4 px), as the centroids do
+            shift, spread_px = _refined_offset(fit, centre, refined)
+            centre[refined] += shift
+            # their stated SD at least their disagreement with the edge fits' centres, which
+            # the formal errors miss where the model does not hold (a mark on the ball)
+            fit = fit._replace(centre_sd=max(fit.centre_sd, spread_px))
+        else:
+            # a small ball's radius is the small-ball fit's (at 5 px RMS error 1.7 % against
+            # the edge model's 3.6 %: SMALL_FIT_SYSTEMATIC_PX), and its light
+            if math.isfinite(small.radius_se):
+                fit = fit._replace(radius=small.radius, radius_se=small.radius_se,
+                                   method=SMALL_BALL_FIT)
+            if small.light is not None and small.light[1] < fit.light[1]:
+                fit = fit._replace(light=small.light)
+    return fit, offset, refined, shift
+
+
+def _refined_offset(fit, centre: np.ndarray, refined: np.ndarray
+                    ) -> tuple[tuple[float, float], float]:
+    """The median offset (px) of the edge fits' centres from the refined centres on the frames
+    both have, and their RMS difference per coordinate about it (px): no offset where the ball
+    is blurred beyond ``CENTRE_FIT_BLUR`` of its radius (the edge fits' centres are then no
+    better); (0, 0) and 0 where no edge-fitted frame was refined."""
+    frames = np.asarray(fit.frames, dtype=int)
+    both = refined[frames]
+    if not both.any():
+        return (0.0, 0.0), 0.0
+    diff = np.asarray(fit.centres, dtype=float)[both] - centre[frames[both]]
+    shift = np.median(diff, axis=0)
+    spread_px = float(np.sqrt(np.mean((diff - shift) ** 2)))
+    if fit.sigma > CENTRE_FIT_BLUR * fit.radius:
+        return (0.0, 0.0), spread_px
+    return (float(shift[0]), float(shift[1])), spread_px
 
 
 def _check_frames(frames) -> np.ndarray:
