@@ -922,7 +922,14 @@ def test_a_campaign_whose_scale_is_off_is_told_so_in_words():
                      off.summary()), off.summary()
     wide = gravity_scale(falls, G, [0.05] * 20)
     assert wide.agrees and "warning" not in wide.summary()
-    assert re.search(r"; \d\.\d SD given the tracker's .*: consistent$", wide.summary())
+    # stated as +-5 %, the fall (~0.55 %) is the better scale, and the summary says so
+    assert re.search(r"; \d\.\d SD given the tracker's .*: consistent; the fall is \d+x as "
+                     r"precise: `scale = \"gravity\"` in \[trajectories\] would take the lengths "
+                     r"from it$", wide.summary()), wide.summary()
+    # lengths right and stated to twice the fall's SD: consistent, and no such advice
+    right = [fit_arrays(t, pos).fall for t, pos in (bounce(rng) for _ in range(20))]
+    near = gravity_scale(right, G, [2.0 * wide.scale_sd] * 20)
+    assert near.agrees and near.summary().endswith(": consistent"), near.summary()
     assert "no scale uncertainty was stated" in gravity_scale(falls, G).summary()
     assert gravity_scale([], G) is None
 

@@ -33,6 +33,10 @@ from ._flight import Flight
 SCATTER_P = 1e-3
 #: |z| above this: the fall and the stated scale disagree (the warning).
 DISAGREE_Z = 3.0
+#: The summary says the fall would be the better scale where its SD is at most the stated
+#: scale's SD over this (10 px balls under a 1.5 px blur: the edge states 7 %, a video's fall
+#: 0.4-0.7 %, a campaign's 0.17 %; benchmarks/gravity_scale.py)
+PRECISE_RATIO = 3.0
 #: The drag coefficient's relative SD where the ball is known, and the SD of each lift
 #: component in units of it: as the drag fit's priors (FitConfig.drag_k).
 DRAG_REL_SD = 0.5
@@ -197,7 +201,11 @@ class GravityScale:
             return head + "; no scale uncertainty was stated to compare with"
         stated = f"the tracker's stated scale uncertainty (+- {100 * self.stated:.2f} %)"
         if self.agrees:
-            return head + f"; {abs(self.z or 0.0):.1f} SD given {stated}: consistent"
+            line = head + f"; {abs(self.z or 0.0):.1f} SD given {stated}: consistent"
+            if self.scale_sd > 0 and self.stated >= PRECISE_RATIO * self.scale_sd:
+                line += (f"; the fall is {self.stated / self.scale_sd:.0f}x as precise: "
+                         "`scale = \"gravity\"` in [trajectories] would take the lengths from it")
+            return line
         return (f"{head}\n  warning: that is {abs(self.z or 0.0):.1f} SD given {stated}: the "
                 "scale (--ball-diameter or --reference) is off, or the frame rate (the fall "
                 f"is g at {math.sqrt(self.gravity / self.fall):.4g} times the rate used), or "
