@@ -229,6 +229,27 @@ def test_the_detected_surface_is_an_edge_the_ball_does_not_cross():
         is None
 
 
+def test_the_detected_surface_is_the_edge_the_ball_touches():
+    # expected: the plane's edge as drawn (row 80, horizontal, 70 of 160 px wide). A shelf's
+    # edge across the whole frame at row 20, above the ball's path, is longer and not crossed
+    # either; the ball comes within its radius of the plane's edge (the contact) and no nearer
+    # than 22 px to the shelf's, so the plane's edge is the surface. (Found on a rendered MJPEG
+    # clip, where a 151 px edge of the wall's texture at 23 degrees beat the surface's broken
+    # 124 px edge, and the kinematics would have been turned by 21 degrees.)
+    rng = np.random.default_rng(5)
+    vv, uu = np.mgrid[:100, :160].astype(float)
+    bg = np.where(vv < 20.0, 150.0, 60.0)  # the shelf
+    bg = np.where((vv >= 80.0) & (uu >= 45.0) & (uu < 115.0), 20.0, bg)  # the plane
+    bg = np.clip(bg + rng.normal(0.0, 1.0, bg.shape), 0, 255)
+    t = np.linspace(-1.0, 1.0, 41)
+    centres = np.column_stack([80.0 + 30.0 * t, 70.0 - 28.0 * np.abs(t)])  # touches row 80
+    shelf = detect_surface(bg)
+    assert shelf is not None and shelf.point[1] == pytest.approx(19.5, abs=1.0)  # can fail
+    surface = detect_surface(bg, centres=centres, radius=10.0)
+    assert surface is not None and surface.angle == pytest.approx(0.0, abs=0.5)
+    assert surface.point[1] == pytest.approx(79.5, abs=1.0)
+
+
 def test_a_surface_edge_broken_by_a_textured_wall_is_found(monkeypatch):
     # tests/render_pbr.py's default wall (50 +- 10 grey levels of texture) over its plane (30),
     # a surface sloping by 2 degrees (truth: the renderer's line, v = 140 + u tan 2 deg): Canny

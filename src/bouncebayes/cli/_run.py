@@ -45,7 +45,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
                    help="videos: two pixel points on the surface line, the same in every video "
                         "(one camera set-up); if not given, it is detected in each video as the "
-                        "longest straight edge of its background that the ball does not cross")
+                        "straight edge of its background that the ball does not cross and "
+                        "comes nearest to touching")
     add_tone_curve(p)
     add_readout(p)
     add_figure_formats(p)

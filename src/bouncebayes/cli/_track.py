@@ -55,8 +55,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                             "scale's stated uncertainty")
     p.add_argument("--surface", metavar="X1,Y1,X2,Y2",
                    help="two pixel points on the surface line; if not given, it is detected as "
-                        "the longest straight edge of the background that the ball does not "
-                        "cross")
+                        "the straight edge of the background that the ball does not cross and "
+                        "comes nearest to touching")
     p.add_argument("--polarity", choices=POLARITIES, default=TrackerConfig.polarity,
                    help="ball brighter or darker than its surroundings, or decide from the "
                         "video")

@@ -133,23 +133,25 @@ class Surface:
 def detect_surface(background: np.ndarray, *, min_length: float = 0.3,
                    centres: np.ndarray | None = None, radius: float = math.nan
                    ) -> Surface | None:
-    """The longest straight edge of the background image, refined by a line fit to its edge
-    pixels; ``None`` if no straight edge spans ``min_length`` of the frame's width.
+    """The surface line: a straight edge of the background image (the longest, or the one the
+    ball touches, below), refined by a line fit to its edge pixels; ``None`` if no straight
+    edge spans ``min_length`` of the frame's width.
 
     With the ball's ``centres`` (px, ``(n, 2)``; NaN rows skipped) and ``radius`` (px), only
     an edge the ball bounces off can be the surface: one with every centre on the same side of
-    it, at least half a radius away (the ball does not pass through the surface). The longest
-    such edge; where the strongest edges (Canny's thresholds at the 98th percentile of the
-    gradient, the image smoothed by 1.5 px) give none, again with fainter ones (the 90th), then
-    both on the image smoothed by 3 px: a soft surface edge under a textured wall, smeared by
-    a codec (a rendered H.264 clip: the wall's texture made a 45-degree "edge" through the
-    ball's path; the surface, a ramp of 22 grey levels over ~6 px, was found smoothed by 3 px);
-    where none of those gives one, the same with gaps of ``BROKEN_GAPS`` px bridged, a step
-    only (:func:`_step_sides`).
+    it, at least half a radius away (the ball does not pass through the surface), and of
+    those the one the ball comes nearest to touching (:func:`_pick`). The strongest edges
+    first (Canny's thresholds at the 98th percentile of the gradient, the image smoothed by
+    1.5 px); where none of them is one the ball comes within ``CONTACT`` of its radius of
+    touching, fainter ones too (the 90th), then both on the image smoothed by 3 px: a soft
+    surface edge under a textured wall, smeared by a codec (a rendered H.264 clip: the wall's
+    texture made a 45-degree "edge" through the ball's path; the surface, a ramp of 22 grey
+    levels over ~6 px, was found smoothed by 3 px); then the same with gaps of
+    ``BROKEN_GAPS`` px bridged, steps only (:func:`_step_sides`).
 
-    Limits: the surface must be the longest straight edge in view that the ball does not cross
-    (ruler edges, table edges or the plane's far border can be picked instead: check the
-    overlay, or give the points).
+    Limits: the surface must be a straight edge in view that the ball does not cross (without
+    the ball: the longest; ruler edges, table edges or the plane's far border can be picked
+    instead: check the overlay, or give the points).
     """
     img = np.clip(np.asarray(background, dtype=np.float32), 0, 255).astype(np.uint8)
     ball = None if centres is None else np.asarray(centres, dtype=float).reshape(-1, 2)
@@ -157,27 +159,70 @@ def detect_surface(background: np.ndarray, *, min_length: float = 0.3,
         ball = ball[np.isfinite(ball).all(axis=1)]
     tries = ((1.5, 98.0),) if ball is None else ((1.5, 98.0), (1.5, 90.0), (3.0, 98.0),
                                                  (3.0, 90.0))
-    # the longer gaps only where the first finds none, for the ball's surface: an edge broken
+    # the longer gaps only where the first finds no edge the ball touches: an edge broken
     # into pieces by a textured wall's light and dark patches (tests/render_pbr.py's default
     # wall, 50 +- 10 grey levels, over a plane of 30: Canny kept 43-52 % of the edge's length).
     # Bridging longer gaps joins the wall's texture into long "lines" too, so those must be
-    # steps: the same side brighter along SAME_SIDE of them (the surface 1.0, the texture's
-    # 0.5-0.6)
-    for gap in BROKEN_GAPS if ball is not None else BROKEN_GAPS[:1]:
-        for blur, level in tries:
-            segments, edges, smooth = _segments(img, blur, level, gap, min_length)
-            if ball is not None:
-                segments = [s for s in segments if _beside(s, ball, radius) and (
-                    gap == BROKEN_GAPS[0] or _step_sides(s, smooth) >= SAME_SIDE)]
+    # steps: the same side brighter along SAME_SIDE of them (_step_sides)
+    steps = [(gap, blur, level) for gap in BROKEN_GAPS for blur, level in tries]
+    if ball is None:
+        for gap, blur, level in steps[:len(tries)]:
+            segments, edges, _ = _segments(img, blur, level, gap, min_length)
             if segments:
-                return _refined(max(segments, key=lambda s: math.dist(s[:2], s[2:])), edges)
-    return None
+                return _refined(max(segments, key=_length), edges)
+        return None
+    found: list[tuple[tuple[float, ...], np.ndarray, int]] = []
+    for k, (gap, blur, level) in enumerate(steps):
+        segments, edges, smooth = _segments(img, blur, level, gap, min_length)
+        found += [(s, edges, k) for s in segments if _beside(s, ball, radius) and (
+            gap == BROKEN_GAPS[0] or _step_sides(s, smooth) >= SAME_SIDE)]
+        if found and _off_contact(_pick(found, ball, radius)[0], ball, radius) \
+                <= CONTACT * radius:
+            break
+    if not found:
+        return None
+    segment, edges, _ = _pick(found, ball, radius)
+    return _refined(segment, edges)
+
+
+# An edge the ball comes within CONTACT of its radius of touching (its centres' least distance
+# from it) ends the search: the surface. Else fainter edges and longer gaps are tried too, and
+# of all the edges found the one nearest to the contact is taken (_pick).
+CONTACT = 0.5
+
+
+def _length(segment) -> float:
+    return math.dist(segment[:2], segment[2:])
+
+
+def _off_contact(segment, ball: np.ndarray, radius: float) -> float:
+    """How far (px) the centres' least distance from the line through ``segment`` is from
+    the ball's ``radius`` (0: the ball touches it)."""
+    if len(ball) == 0 or not math.isfinite(radius):
+        return 0.0
+    return abs(float(np.min(np.abs(_across(segment, ball[:, 0], ball[:, 1])))) - radius)
+
+
+def _pick(found, ball: np.ndarray, radius: float):
+    """The surface among ``found`` ((segment, edges, try) triples): the edge the ball comes
+    nearest to touching (:func:`_off_contact`, to the pixel), of those the first try's (the
+    stronger edges, the shorter gaps), of those the longest. A wall's textured edge the ball
+    passes without crossing can be longer than the surface's broken edge (a rendered MJPEG
+    clip: a 151 px line at 23 degrees, the centres 18.7 px from it at their nearest, beat the
+    124 px surface at 11.7 px from a 12.3 px ball, and the kinematics would have been turned
+    by 21 degrees)."""
+    return min(found, key=lambda f: (round(_off_contact(f[0], ball, radius)), f[2],
+                                     -_length(f[0])))
 
 
 # the gaps (px) the line search bridges: the first always, the others where it finds no
-# surface, for a step only (detect_surface)
+# surface, for a step only (detect_surface): the same side brighter along SAME_SIDE of it,
+# the differences summed 2, 4 and 6 px either side. Measured on tests/render_pbr.py's textured
+# walls (five clips, 2026-11-28): the surface 0.90-1.00, the texture's long lines beside the
+# ball's path 0.50-0.73. (With one offset of 3 px and 0.9, a wall of 50 +- 14 grey levels over
+# a plane of 30 had its surface at 0.89, and no surface was found.)
 BROKEN_GAPS = (6, 12, 20)
-SAME_SIDE = 0.9
+SAME_SIDE = 0.85
 
 
 def _segments(img: np.ndarray, blur: float, level: float, gap: int, min_length: float
@@ -197,15 +242,15 @@ def _segments(img: np.ndarray, blur: float, level: float, gap: int, min_length: 
     return segments, edges, smooth
 
 
-def _step_sides(segment, smooth: np.ndarray, offset: float = 3.0) -> float:
+def _step_sides(segment, smooth: np.ndarray, offsets: tuple[float, ...] = (2.0, 4.0, 6.0)
+                ) -> float:
     """The fraction of the points along ``segment`` (one a pixel) where the same side of it is
-    the brighter, ``smooth`` sampled ``offset`` px either side (bilinear): 1 for a step, ~0.5
-    for a line that a wall's texture makes."""
+    the brighter, ``smooth`` sampled ``offsets`` px either side (bilinear) and the differences
+    summed over them: 1 for a step, ~0.5 for a line that a wall's texture makes."""
     x1, y1, x2, y2 = segment
     length = math.dist((x1, y1), (x2, y2))
     a = np.linspace(0.0, 1.0, max(int(length), 2))
     u, v = x1 + a * (x2 - x1), y1 + a * (y2 - y1)
-    nu, nv = -(y2 - y1) / length * offset, (x2 - x1) / length * offset
     img = smooth.astype(np.float32)
 
     def at(du: float, dv: float) -> np.ndarray:
@@ -213,7 +258,10 @@ def _step_sides(segment, smooth: np.ndarray, offset: float = 3.0) -> float:
                          (v + dv).astype(np.float32)[None, :], cv2.INTER_LINEAR,
                          borderMode=cv2.BORDER_REPLICATE)[0]
 
-    diff = at(nu, nv) - at(-nu, -nv)
+    diff = np.zeros(u.size, np.float32)
+    for o in offsets:
+        nu, nv = -(y2 - y1) / length * o, (x2 - x1) / length * o
+        diff += at(nu, nv) - at(-nu, -nv)
     return float(max(np.mean(diff > 0), np.mean(diff < 0)))
 
 

@@ -233,9 +233,9 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
                                  radius=track.ball_radius)
         if surface is None:
             raise InputFileError(source.path, "no surface line detected in the background (it "
-                                 "must be the longest straight edge that the ball does not "
-                                 "cross, spanning 30% of the width): give two points on it "
-                                 "with --surface X1,Y1,X2,Y2")
+                                 "must be a straight edge that the ball does not cross, "
+                                 "spanning 30% of the width): give two points on it with "
+                                 "--surface X1,Y1,X2,Y2")
     trajectory = to_plane_frame(track, calibration, surface, source.fps, readout)
     return TrackedVideo(source=source, track=track, calibration=calibration, surface=surface,
                         trajectory=trajectory)
