@@ -5,7 +5,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Literal, get_args
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -296,24 +296,25 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     centre, radius, method, contrast = _finish(raw, border, edge_fit, config)
     residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
                                             compiled=compiled)
-    fit, offset, refined, shift = _fit_ball(frames, state, background is not None, centre,
-                                            radius, method, flag, config)
-    for a in (centre, radius, method, contrast, residual, visible, flag, refined):
+    fitted = _fit_ball(frames, state, background is not None, centre, radius, method, flag,
+                       config)
+    for a in (centre, radius, method, contrast, residual, visible, flag, fitted["refined"]):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
-                 residual=residual, visible=visible, flag=flag, radius_fit=fit,
-                 centre_offset=offset, refined=refined, refined_offset=shift,
-                 tone_curve=config.tone_curve)
+                 residual=residual, visible=visible, flag=flag, tone_curve=config.tone_curve,
+                 **fitted)
 
 
-def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
+def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config
+              ) -> dict[str, Any]:
     """The fits after the search, on ``centre`` (moved in place): the edge model's radius
     (:func:`._quality.fit_ball_radius`), its centres' offset to the centroids, and the
     per-frame centre fits (:func:`._refine.refine_centres`). They get the background with the
     ball left out around where they look (:func:`_ball_free_background`), or the one given
-    (``given``) as it is. Returns the radius fit, the centroids' offset, the mask of refined
-    frames and the refined centres' offset (:attr:`Track.refined_offset`)."""
+    (``given``) as it is. Returns :class:`Track`'s fields of them: ``radius_fit``,
+    ``centre_offset`` (the centroids'), ``refined`` (the mask of refined frames) and
+    ``refined_offset``."""
     from ._refine import SMALL_RADIUS, refine_centres, stated_centre_sd
 
     gains = np.asarray(state.gains, np.float64)
@@ -346,7 +347,8 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config):
                                    method=SMALL_BALL_FIT)
             if small.light is not None and small.light[1] < fit.light[1]:
                 fit = fit._replace(light=small.light)
-    return fit, offset, refined, shift
+    return {"radius_fit": fit, "centre_offset": offset, "refined": refined,
+            "refined_offset": shift}
 
 
 def _refined_offset(fit, centre: np.ndarray, refined: np.ndarray
