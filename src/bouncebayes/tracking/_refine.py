@@ -74,13 +74,13 @@ SMALL_RADIUS = 8.0   # px: balls up to this radius are fitted over their whole d
 # ... a larger ball's pixels deeper than REACH_PX + INNER_BLURS blurs inside the rim are left
 # out: its interior holds nothing of the centre that the rim does not, and the shading there
 # (a highlight's lobe, a mark on the ball) is what the cut-down model follows worst. Measured
-# on 48 scenes of benchmarks/tracking_accuracy.py's renderer (radius 10-20 px, blur 0-1.5 px,
-# exposure 0-80 %, side-lit, glossy and dark balls, textured and plain walls, MJPEG or none;
-# /benchmarks/tracking_accuracy.py --centres): the centres' RMS error about their mean, median
-# over the scenes, 0.083 px as coverage centroids, 0.028 px fitted on the rim (max 0.34 ->
-# 0.10); the rebound angle's z-scores RMS 1.72 -> 0.72 (largest 3.60 -> 1.57). The whole disk
-# fitted: 0.065 px against 0.029 on the rim on a 10 px side-lit ball over texture, and a ball
-# with a dark stripe painted on it 0.59 px against 0.27 (centroids 0.30)
+# on 48 bounces of benchmarks/tracking_centres.py (radius 10-20 px, blur 0-1.5 px, exposure
+# 0-80 %, side-lit, glossy and dark balls, textured and plain walls, MJPEG or none): the
+# centres' RMS error about their mean, median over the bounces, 0.083 px as coverage
+# centroids, 0.028 px fitted on the rim (largest 0.34 -> 0.08); the rebound angle's z-scores
+# RMS 1.72 -> 0.57 (largest 3.60 -> 1.18). The whole disk fitted: 0.065 px against 0.029 on
+# the rim on a 10 px side-lit ball over texture, and a ball with a dark stripe painted on it
+# 0.59 px against 0.27 (centroids 0.30)
 INNER_BLURS = 2.5
 N_ITER = 1           # Gauss-Newton steps per frame from the centre predicted from the two
 #                      frames before (from the centroid: one more; 2 and 3 steps from it give the
@@ -202,7 +202,11 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     shadow columns of a light from ``(az, el)`` (radians; none where ``el >= pi/2``): ok, and
     :func:`_result` (the centre's formal standard errors: the residual's variance times the
     inverse normal matrix, px). With ``n_iter = 0`` only the linear coefficients at the
-    starting centre: the residual sum of squares there and the shading's gradient."""
+    starting centre: the residual sum of squares there and the shading's gradient. Pixels
+    nearer the centre than ``inner`` (px) are left out (:func:`rim_only`); with ``occlusion``
+    the model has the wall the ball hides, ``+ k grad B . (-grad S)`` (``k = sigma^2 + 1/12``,
+    the background's gradient from central differences; the edge model's term, held, not
+    differentiated: a few per cent of the step's own derivative)."""
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
@@ -277,7 +281,6 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
             ok, beta = _solve(*_normal(jt, res, n_nl))
             if not ok:
                 return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
-
             if n_iter == 0:  # only the cost there
                 rss = 0.0
                 for k in range(n):

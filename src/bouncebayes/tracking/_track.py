@@ -93,9 +93,10 @@ class Track:
     the coverage centroid or the disk fit at the frame edge (:mod:`._refine`: a small ball's
     whole disk, a larger ball's rim; the centroids' offset does not apply to them);
     ``refined_offset``: the shift (px) applied to a larger ball's refined centres so that they
-    agree with the edge fits (a small ball's: none). ``tone_curve``: the camera's tone curve the frames were
-    decoded by (``TrackerConfig.tone_curve``, None: not given, taken as linear; ``background``,
-    ``contrast``, ``noise`` and ``threshold`` are in decoded grey levels).
+    agree with the edge fits (a small ball's: none). ``tone_curve``: the camera's tone curve
+    the frames were decoded by (``TrackerConfig.tone_curve``, None: not given, taken as
+    linear; ``background``, ``contrast``, ``noise`` and ``threshold`` are in decoded grey
+    levels).
     """
 
     centre: np.ndarray
