@@ -331,6 +331,35 @@ def test_rebound_from_tracked_video_is_within_the_kinematics_uncertainty(noisy, 
 # --------------------------------------------------------------------------- reading
 
 
+def test_with_a_tone_curve_the_surface_is_looked_for_in_the_stored_levels_too(clean, tmp_path,
+                                                                              monkeypatch):
+    # Frames decoded by a tone curve: where no surface is found in the decoded background, the
+    # background as stored (the stored frames' median) is searched too -- a curve moves no
+    # edge (a rendered sRGB clip, a plane of 30 under a wall of 50 +- 14 in light: its surface
+    # found as stored at 3.00 deg for the truth 3, not in light). Expected: the second search
+    # gets exactly background_model of the stored frames, and its line is the one returned.
+    from bouncebayes.tracking import _output
+
+    _, _, frames = clean
+    folder = write_png_sequence(frames, tmp_path / "seq")
+    seen = []
+    line = Surface.from_points((0.0, 150.0), (300.0, 150.0))
+
+    def detect(bg, **kw):
+        seen.append(np.asarray(bg, dtype=np.float64))
+        return None if len(seen) == 1 else line
+
+    monkeypatch.setattr(_output, "detect_surface", detect)
+    video = track_video(folder, fps=1000, config=TrackerConfig(tone_curve="srgb"))
+    assert len(seen) == 2 and video.surface is line
+    np.testing.assert_array_equal(seen[1], background_model(frames))
+    assert not np.array_equal(seen[0], seen[1])  # the first was in light
+    seen.clear()  # linear frames: one search only, and the error names the file
+    with pytest.raises(InputFileError, match=r"seq: no surface line detected"):
+        track_video(folder, fps=1000)
+    assert len(seen) == 1
+
+
 def test_image_folder_is_sorted_naturally_and_needs_fps(clean, tmp_path):
     _, _, frames = clean
     folder = write_png_sequence(frames[:12], tmp_path / "seq")  # frame_2.png < frame_10.png
