@@ -786,9 +786,10 @@ def test_a_larger_balls_centres_are_fitted_on_its_rim_every_frame(monkeypatch):
 
 def test_a_striped_balls_centres_are_not_stated_better_than_they_are():
     # The same ball with a dark stripe painted on it, turning at 150 rad/s: the shading model
-    # has no stripe, and the fitted centres err by 0.23-0.25 px here (seeds 2 and 1; the
-    # centroids' 0.15-0.16; over benchmarks/tracking_centres.py's four striped bounces the
-    # fitted 0.21 px median against the centroids' 0.48). Their stated SD, at least their
+    # has no stripe, and the fitted centres err (truth: the renderer's centres, about their
+    # mean) by 0.23-0.25 px here (seeds 2 and 1; the centroids' 0.15-0.16; over
+    # benchmarks/tracking_centres.py's four striped bounces the fitted 0.21 px median against
+    # the centroids' 0.48). Their stated SD, at least their
     # disagreement with the edge fits' centres, covers that: measured 0.28 and 0.30 px (the
     # formal errors alone 0.6-0.9x the true error on the benchmark's).
     from render_pbr import render

@@ -215,7 +215,8 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
                              f"{source.fps:g} frames/s")
     if isinstance(background, str | os.PathLike):
         background = _background_file(background, source)
-    track = track_ball(source.frames, config=config or TrackerConfig(), background=background)
+    config = config or TrackerConfig()
+    track = track_ball(source.frames, config=config, background=background)
     n_found = int(track.found.sum())
     if n_found < 3:
         raise InputFileError(source.path, _not_found_message(track, n_found))
@@ -229,7 +230,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         calibration = Calibration.from_track(diameter, track, source.jpeg_quality,
                                              source.bits_per_pixel)
     if surface is None:
-        surface = _detected_surface(track, source, background)
+        surface = _detected_surface(track, source, background, config.background_frames)
         if surface is None:
             raise InputFileError(source.path, "no surface line detected in the background (it "
                                  "must be a straight edge that the ball does not cross, "
@@ -249,16 +250,17 @@ def _background_file(path: str | os.PathLike, source: VideoSource) -> np.ndarray
     return image
 
 
-def _detected_surface(track: Track, source: VideoSource, background) -> Surface | None:
+def _detected_surface(track: Track, source: VideoSource, background,
+                      n_frames: int) -> Surface | None:
     """:func:`detect_surface` on the track's background; where the frames were decoded by a
     tone curve and none is found there, again on the background as stored (the given image, or
-    the stored frames' median): a curve moves no edge, but the stored levels can show the
+    the median of ``n_frames`` stored frames, as the track's): a curve moves no edge, but the stored levels can show the
     surface's step more plainly than light does (a rendered sRGB clip, a plane of 30 under a
     wall of 50 +- 14 in light: found as stored, 3.00 deg for the truth 3, not in light)."""
     near = {"centres": track.centre[track.trusted], "radius": track.ball_radius}
     surface = detect_surface(track.background, **near)
     if surface is None and track.tone_curve not in (None, "linear"):
-        stored = background_model(source.frames) if background is None else background
+        stored = background_model(source.frames, n_frames) if background is None else background
         surface = detect_surface(stored, **near)
     return surface
 

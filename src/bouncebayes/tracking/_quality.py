@@ -160,13 +160,27 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
         return None, (0.0, 0.0)
     pick = np.concatenate([pick, extra])
     fit = fit._replace(frames=tuple(int(pick[i]) for i in fit.frames))
-    diff = fit.centres - centre[list(fit.frames)]
-    shift = np.median(diff, axis=0)
     # the centroids' per-frame error: their RMS disagreement with the edge fits' centres, the
     # constant offset removed (the edge centres are 2-5x more accurate: on the independent
     # renderer, MJPEG, radius 10 px, this is 0.05-0.10 px where the centroids' true RMS error
     # is 0.05-0.13 px, docs/tracking.md); correlated along the track (texture, codec)
-    fit = fit._replace(centre_sd=float(np.sqrt(np.mean((diff - shift) ** 2))))
-    if fit.sigma > CENTRE_FIT_BLUR * fit.radius:  # the edge fits' centres are not better
-        return fit, (0.0, 0.0)
-    return fit, (float(shift[0]), float(shift[1]))
+    shift, spread_px = edge_offset(fit, centre, np.ones(len(centre), bool))
+    return fit._replace(centre_sd=spread_px), shift
+
+
+def edge_offset(fit: RadiusFit, centre: np.ndarray, use: np.ndarray
+                ) -> tuple[tuple[float, float], float]:
+    """The median offset (px) of the edge fits' centres from ``centre`` on the fitted frames
+    that ``use`` (a mask over the frames) allows, and their RMS difference per coordinate about
+    it (px): no offset where the ball is blurred beyond ``CENTRE_FIT_BLUR`` of its radius (the
+    edge fits' centres are then no better); (0, 0) and 0 where no fitted frame is allowed."""
+    frames = np.asarray(fit.frames, dtype=int)
+    both = use[frames]
+    if not both.any():
+        return (0.0, 0.0), 0.0
+    diff = np.asarray(fit.centres, dtype=float)[both] - centre[frames[both]]
+    shift = np.median(diff, axis=0)
+    spread_px = float(np.sqrt(np.mean((diff - shift) ** 2)))
+    if fit.sigma > CENTRE_FIT_BLUR * fit.radius:
+        return (0.0, 0.0), spread_px
+    return (float(shift[0]), float(shift[1])), spread_px

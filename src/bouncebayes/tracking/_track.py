@@ -10,9 +10,9 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import CENTRE_FIT_BLUR, SMALL_BALL_FIT, RadiusFit, spread
+from ._edge import SMALL_BALL_FIT, RadiusFit, spread
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
-from ._quality import fit_ball_radius, frame_quality
+from ._quality import edge_offset, fit_ball_radius, frame_quality
 from ._tone import check_tone_curve, decode, decode_table
 
 Polarity = Literal["auto", "bright", "dark"]
@@ -335,7 +335,7 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config
             # a larger ball keeps the edge model's radius, and its refined centres take the
             # edge fits' mean position (the cut-down shading leaves a constant bias: a glossy
             # ball's highlight 0.1-0.4 px), as the centroids do
-            shift, spread_px = _refined_offset(fit, centre, refined)
+            shift, spread_px = edge_offset(fit, centre, refined)
             centre[refined] += shift
             # their stated SD at least their disagreement with the edge fits' centres, which
             # the formal errors miss where the model does not hold (a mark on the ball)
@@ -350,24 +350,6 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config
                 fit = fit._replace(light=small.light)
     return {"radius_fit": fit, "centre_offset": offset, "refined": refined,
             "refined_offset": shift}
-
-
-def _refined_offset(fit, centre: np.ndarray, refined: np.ndarray
-                    ) -> tuple[tuple[float, float], float]:
-    """The median offset (px) of the edge fits' centres from the refined centres on the frames
-    both have, and their RMS difference per coordinate about it (px): no offset where the ball
-    is blurred beyond ``CENTRE_FIT_BLUR`` of its radius (the edge fits' centres are then no
-    better); (0, 0) and 0 where no edge-fitted frame was refined."""
-    frames = np.asarray(fit.frames, dtype=int)
-    both = refined[frames]
-    if not both.any():
-        return (0.0, 0.0), 0.0
-    diff = np.asarray(fit.centres, dtype=float)[both] - centre[frames[both]]
-    shift = np.median(diff, axis=0)
-    spread_px = float(np.sqrt(np.mean((diff - shift) ** 2)))
-    if fit.sigma > CENTRE_FIT_BLUR * fit.radius:
-        return (0.0, 0.0), spread_px
-    return (float(shift[0]), float(shift[1])), spread_px
 
 
 def _check_frames(frames) -> np.ndarray:
