@@ -26,7 +26,9 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   super-sampled pixel).
 - **Background**: a continuous textured wall (sum of random-phase plane waves), the surface
   line with a darker plane below it; optional lit band above the surface, a static occluder
-  (a vertical post in front of the ball) and a contact shadow under the ball.
+  (a vertical post in front of the ball), a contact shadow under the ball, and a glossy
+  surface (``reflect``: the ball's mirror image below the surface line, its radiance times
+  the reflectance added to the plane's).
 - **Sensor**: gain to grey levels, shot noise (variance ``shot * grey``) plus read noise,
   clipping at 0 and 255 (a saturated highlight), optionally the camera's tone curve (``tone``:
   ``"srgb"``, IEC 61966-2-1's encoding, or ``"rec709"``, the BT.709 camera curve, applied to the
@@ -113,6 +115,7 @@ class Shot:
     band: float = 0.0                 # extra grey of a lit band just above the surface
     occluder_u: float | None = None   # column of a static post in front of the ball
     shadow: float = 0.0               # depth (0-1) of a soft contact shadow under the ball
+    reflect: float = 0.0              # reflectance of a glossy surface: the ball's mirror image
     # sensor and codec
     read_noise: float = 1.5
     shot: float = 0.05
@@ -244,6 +247,11 @@ def render(shot: Shot) -> np.ndarray:
             bw_k = bw * _shadow(shot, Uw, Vw, cu, cv) if shot.shadow > 0 else bw
             cover, rad = _ball(shot, Uw - cu, Vw - cv, sub, t)
             comp = bw_k * (1 - cover) + rad * cover
+            if shot.reflect > 0:  # the ball mirrored in the surface, seen below it
+                e, n = shot.axes()
+                hw = Uw * n[0] + (Vw - shot.surface_v) * n[1]
+                mc, mr = _ball(shot, Uw - 2 * hw * n[0] - cu, Vw - 2 * hw * n[1] - cv, sub, t)
+                comp = comp + shot.reflect * mr * mc * np.clip(0.5 - hw, 0.0, 1.0)
             if post is not None:
                 pw = post[sl]
                 comp = comp * (1 - pw) + 30.0 * pw
@@ -259,6 +267,10 @@ def render(shot: Shot) -> np.ndarray:
         img = base.copy()
         # the window reaches two margins beyond the ball: the blur's halo (one margin) is
         # pasted, the outer margin only feeds the blur
+        if shot.reflect > 0:  # the window holds the mirror image too
+            e, n = shot.axes()
+            hc = cs[:, 0] * n[0] + (cs[:, 1] - shot.surface_v) * n[1]
+            cs = np.concatenate([cs, cs - 2 * hc[:, None] * n])
         lo = np.floor(cs.min(axis=0) - shot.radius_px).astype(int) - 2 * margin
         hi = np.ceil(cs.max(axis=0) + shot.radius_px).astype(int) + 2 * margin + 1
         u0, v0 = max(lo[0], 0), max(lo[1], 0)

@@ -865,13 +865,16 @@ class JointFit(NamedTuple):
 
 
 def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
-                  kappa: np.ndarray | None) -> tuple[_Pixels, np.ndarray] | None:
+                  kappa: np.ndarray | None, gains: np.ndarray
+                  ) -> tuple[_Pixels, np.ndarray] | None:
     """The pixels of every frame of ``args`` as one set, each with the robust weights of its
     own fit ``fits`` under ``held``, and whether each is within ``SATURATED_REACH`` blurs of a
-    saturated pixel; None where a frame's cannot be had."""
+    saturated pixel; None where a frame's cannot be had. Each frame's grey levels are divided
+    by its gain ``gains`` (its weights multiplied by it: the same cost): the lamp that lights
+    the wall lights the ball, so one shading of the ball holds every frame under flicker."""
     sigma, exposure, az, el = held
     pxs, near = [], []
-    for (img, bg, _, v), f in zip(args, fits, strict=True):
+    for (img, bg, _, v), f, g in zip(args, fits, gains, strict=True):
         q = np.array([f.cx, f.cy, f.r, sigma, exposure, az, el])
         px = _rim_pixels(img, bg, q, v, kappa)
         if px is None or px.u.size < 40:
@@ -881,9 +884,36 @@ def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float
         except np.linalg.LinAlgError:
             return None
         scale = 1.4826 * float(np.median(np.abs(res))) + 1e-9
-        pxs.append(px._replace(weight=(np.abs(res) <= 4.0 * scale).astype(np.float64)))
+        pxs.append(px._replace(weight=g * (np.abs(res) <= 4.0 * scale), grey=px.grey / g,
+                               bg=px.bg / g, gbu=px.gbu / g, gbv=px.gbv / g))
         near.append(_near_saturated(img, px, math.ceil(SATURATED_REACH * _blur(q, v))))
     return _stack(pxs), np.concatenate(near)
+
+
+def _ball_levels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
+                 gains: np.ndarray) -> np.ndarray:
+    """Each frame's ball brightness relative to its gain (the wall's), over the median of the
+    frames': a lens's vignetting or a lamp's fall-off lights the ball unlike the wall as it
+    moves. From the mean grey level of the ball's inside (beyond 3 blurs and 1 px from its
+    rim, where the ball alone is seen), weighted by ``(1 - (rho / r_in)^2)^2`` so that the
+    mean does not jump as pixels cross the circle. Ones where the inside is under 2 px in
+    radius or holds a saturated pixel (a highlight does not scale)."""
+    sigma, exposure = held[:2]
+    means = np.empty(len(args))
+    for k, ((img, _, _, v), f) in enumerate(zip(args, fits, strict=True)):
+        r_in = f.r - 3.0 * _blur(np.array([f.cx, f.cy, f.r, sigma, exposure]), v) - 1.0
+        u0, v0 = max(math.ceil(f.cx - r_in), 0), max(math.ceil(f.cy - r_in), 0)
+        u1 = min(math.floor(f.cx + r_in) + 1, img.shape[1])
+        v1 = min(math.floor(f.cy + r_in) + 1, img.shape[0])
+        if r_in < 2.0 or u1 <= u0 or v1 <= v0:
+            return np.ones(len(args))
+        vv, uu = np.mgrid[v0:v1, u0:u1]
+        w = np.clip(1.0 - ((uu - f.cx) ** 2 + (vv - f.cy) ** 2) / (r_in * r_in), 0.0, None) ** 2
+        patch = img[v0:v1, u0:u1]
+        if np.any((patch >= SATURATED) & (w > 0)):
+            return np.ones(len(args))
+        means[k] = float(np.sum(w * patch) / np.sum(w)) / gains[k]
+    return means / np.median(means)
 
 
 def _at_centres(every: _Pixels, c: np.ndarray) -> _Pixels:
@@ -1049,10 +1079,13 @@ def _joint_light(every: _Pixels, q: np.ndarray, c: np.ndarray) -> tuple[float, f
 
 
 def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
-                 kappa: np.ndarray | None) -> JointFit | None:
+                 kappa: np.ndarray | None, gains: Sequence[float] | None = None
+                 ) -> JointFit | None:
     """The radius that fits the frames ``args`` (image, background, centre, velocity) best
     together: one radius, blur, light and shading of the ball (its linear coefficients) for
-    all, the exposure ``held``, each frame its own centre and local background levels; from
+    all, that shading times each frame's gain ``gains`` (default 1: the frame's brightness
+    relative to the background model, lamp flicker), the exposure ``held``, each frame its
+    own centre and local background levels; from
     the frames' own fits ``fits`` (their centres, the median radius; each frame's pixels and
     robust weights as its fit's) under ``held = (sigma, exposure, az, el)``. None where the
     fit fails.
@@ -1076,7 +1109,8 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
     (docs/tracking.md §1, *the frames together*, *the light and the blur of the frames
     together*, *the columns blurred in two dimensions*). The frames' own fits keep the columns
     blurred along the radius only (2-3x cheaper; their radius is not the one kept here)."""
-    joined = _joint_pixels(args, fits, held, kappa)
+    gain = np.ones(len(args)) if gains is None else np.asarray(gains, dtype=float)
+    joined = _joint_pixels(args, fits, held, kappa, gain * _ball_levels(args, fits, held, gain))
     if joined is None:
         return None
     every, near_saturated = joined
@@ -1121,8 +1155,9 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
     return JointFit(float(q[0]), c, float(q[1]), (az, float(q[4])))
 
 
-# frames, backgrounds, centres (px) and velocities (px per frame) of the frames fitted
-_FrameInputs = tuple[Sequence[np.ndarray], Sequence[np.ndarray], np.ndarray, np.ndarray]
+# frames, backgrounds, centres (px), velocities (px per frame) and gains of the frames fitted
+_FrameInputs = tuple[Sequence[np.ndarray], Sequence[np.ndarray], np.ndarray, np.ndarray,
+                     Sequence[float]]
 
 
 def _held_fits(args, first: dict[int, EdgeFit | None], r1: float,
@@ -1143,22 +1178,25 @@ def _held_fits(args, first: dict[int, EdgeFit | None], r1: float,
 
 
 def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
-               centres: np.ndarray, velocities: np.ndarray, r0: float,
+               centres: np.ndarray, velocities: np.ndarray, gains: Sequence[float], r0: float,
                more: Callable[[], _FrameInputs] | None = None,
                kappa: np.ndarray | None = None) -> RadiusFit | None:
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
-    ``velocities``: px per frame): up to ``FIRST_FRAMES`` of them fitted alone, then every
+    ``velocities``: px per frame; ``gains``: each frame's brightness relative to the
+    background model, which the frames fitted together scale the ball's shading by): up to
+    ``FIRST_FRAMES`` of them fitted alone, then every
     frame with the blur, exposure and light held at those fits' (medians; the light: see
     below); the median radius and its standard error. Where those first fits find a blur of
     ``BLURRED`` to ``MORE_FRAMES_MAX_BLUR`` of the radius, ``more()`` gives more frames (the
-    same four sequences; ``RadiusFit.frames`` then counts them after the frames given), up to
+    same five sequences; ``RadiusFit.frames`` then counts them after the frames given), up to
     ``FIRST_FRAMES_BLURRED`` in all are fitted alone and every frame with the blur held, and
     the radius and centres are those of the frames fitted together (:func:`joint_radius`; the
     standard error stays the median's; the blur and light then the joint fit's).
     ``kappa``: the backgrounds' variance in units of the frames' noise variance, one map for
     the video (:func:`fit_edge`). None if fewer than 3 frames could be fitted."""
     args = list(zip(frames, backgrounds, centres, velocities, strict=True))
+    gain = [float(g) for g in gains]
     # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
     # frames, spread: they only set the shared blur, exposure, light and the starting radius
     first = {int(i): fit_edge(*args[int(i)], r0, kappa=kappa)
@@ -1169,7 +1207,9 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     blur = float(np.median([f.sigma for f in ok]) / np.median([f.r for f in ok]))
     if more is not None and BLURRED <= blur <= MORE_FRAMES_MAX_BLUR:
         # blurred for its size: the blur the fits hold sets the radius; more frames for it
-        extra = list(zip(*more(), strict=True))
+        *inputs, extra_gains = more()
+        extra = list(zip(*inputs, strict=True))
+        gain += [float(g) for g in extra_gains]
         n = len(args)
         args += extra
         for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
@@ -1197,7 +1237,7 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     centres = np.array([[f.cx, f.cy] for f in fits])
     if BLURRED <= held[0] / med <= MORE_FRAMES_MAX_BLUR:
         # blurred for its size: the frames together (the SE stays the frames' scatter's)
-        joint = joint_radius([args[i] for i in used], fits, held, kappa)
+        joint = joint_radius([args[i] for i in used], fits, held, kappa, [gain[i] for i in used])
         if joint is not None:
             med, centres = joint.radius, joint.centres
             held = (joint.sigma, held[1], *joint.light)

@@ -176,19 +176,38 @@ def detect_surface(background: np.ndarray, *, min_length: float = 0.3,
         segments, edges, smooth = _segments(img, blur, level, gap, min_length)
         found += [(s, edges, k) for s in segments if _beside(s, ball, radius) and (
             gap == BROKEN_GAPS[0] or _step_sides(s, smooth) >= SAME_SIDE)]
-        if found and _off_contact(_pick(found, ball, radius)[0], ball, radius) \
-                <= CONTACT * radius:
-            break
+        if found:
+            best = _pick(found, ball, radius)[0]
+            if _bounces_off(best, ball) and _off_contact(best, ball, radius) <= CONTACT * radius:
+                break
     if not found:
         return None
     segment, edges, _ = _pick(found, ball, radius)
     return _refined(segment, edges)
 
 
-# An edge the ball comes within CONTACT of its radius of touching (its centres' least distance
-# from it) ends the search: the surface. Else fainter edges and longer gaps are tried too, and
-# of all the edges found the one nearest to the contact is taken (_pick).
+# An edge the ball bounces off (_bounces_off) and comes within CONTACT of its radius of
+# touching (its centres' least distance from it) ends the search: the surface. Else fainter
+# edges and longer gaps are tried too, and of all the edges found the one nearest to the
+# contact is taken (_pick).
 CONTACT = 0.5
+
+
+def _bounces_off(segment, ball: np.ndarray) -> bool:
+    """Whether the centres ``ball`` (in time order) come nearest to the line through
+    ``segment`` between their ends, with ``BOUNCE_SAMPLES`` or more on each side and both
+    ends at least 1 px farther: a bounce off it. A line of a wall's texture parallel to the
+    ball's path can lie a radius from it too, the centres nearest where the track starts or
+    ends (a rendered clip under flickering light: a texture line at 28 degrees, 0.6 px off
+    the contact, nearest at the last frame, was taken for the surface)."""
+    if len(ball) < 2 * BOUNCE_SAMPLES + 1:
+        return True
+    d = np.abs(_across(segment, ball[:, 0], ball[:, 1]))
+    k = int(np.argmin(d))
+    return BOUNCE_SAMPLES <= k < len(d) - BOUNCE_SAMPLES and min(d[0], d[-1]) >= d[k] + 1.0
+
+
+BOUNCE_SAMPLES = 3
 
 
 def _length(segment) -> float:
@@ -204,14 +223,16 @@ def _off_contact(segment, ball: np.ndarray, radius: float) -> float:
 
 
 def _pick(found, ball: np.ndarray, radius: float):
-    """The surface among ``found`` ((segment, edges, try) triples): the edge the ball comes
-    nearest to touching (:func:`_off_contact`, to the pixel), of those the first try's (the
-    stronger edges, the shorter gaps), of those the longest. A wall's textured edge the ball
+    """The surface among ``found`` ((segment, edges, try) triples): an edge the ball bounces
+    off (:func:`_bounces_off`) before one it does not, then the edge the ball comes nearest
+    to touching (:func:`_off_contact`, to the pixel), of those the first try's (the stronger
+    edges, the shorter gaps), of those the longest. A wall's textured edge the ball
     passes without crossing can be longer than the surface's broken edge (a rendered MJPEG
     clip: a 151 px line at 23 degrees, the centres 18.7 px from it at their nearest, beat the
     124 px surface at 11.7 px from a 12.3 px ball, and the kinematics would have been turned
     by 21 degrees)."""
-    return min(found, key=lambda f: (round(_off_contact(f[0], ball, radius)), f[2],
+    return min(found, key=lambda f: (not _bounces_off(f[0], ball),
+                                     round(_off_contact(f[0], ball, radius)), f[2],
                                      -_length(f[0])))
 
 

@@ -151,7 +151,7 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
 
     def inputs(idx: np.ndarray, bg: np.ndarray) -> _FrameInputs:
         return ([frames[k] for k in idx], [gains[k] * bg for k in idx], centre[idx],
-                (centre[idx + 1] - centre[idx - 1]) / 2.0)
+                (centre[idx + 1] - centre[idx - 1]) / 2.0, gains[idx])
 
     bg, kappa = clean(centre[pick])  # kappa: one map, updated in place as more() asks
     fit = fit_radius(*inputs(pick, bg), r0, more=lambda: inputs(extra, clean(centre[extra])[0]),
