@@ -29,6 +29,9 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   (a vertical post in front of the ball), a contact shadow under the ball, and a glossy
   surface (``reflect``: the ball's mirror image below the surface line, its radiance times
   the reflectance added to the plane's).
+- **Camera motion** (``camera``, one ``(du, dv)`` per frame): frame ``k`` shows the scene
+  point ``p + d_k`` at pixel ``p`` (the whole scene rendered again at the shifted points;
+  ``true_centres`` stay in the scene's pixels).
 - **Sensor**: gain to grey levels, shot noise (variance ``shot * grey``) plus read noise,
   clipping at 0 and 255 (a saturated highlight), optionally the camera's tone curve (``tone``:
   ``"srgb"``, IEC 61966-2-1's encoding, or ``"rec709"``, the BT.709 camera curve, applied to the
@@ -116,6 +119,7 @@ class Shot:
     occluder_u: float | None = None   # column of a static post in front of the ball
     shadow: float = 0.0               # depth (0-1) of a soft contact shadow under the ball
     reflect: float = 0.0              # reflectance of a glossy surface: the ball's mirror image
+    camera: tuple[tuple[float, float], ...] | None = None  # per frame: the camera's shift (px)
     # sensor and codec
     read_noise: float = 1.5
     shot: float = 0.05
@@ -238,10 +242,13 @@ def render(shot: Shot) -> np.ndarray:
     margin = int(math.ceil(4 * shot.sigma_px)) + 3
     frames = np.empty((shot.n_frames, h, w), np.uint8)
     base = down(blur(wall_hi.astype(np.float32)))
+    scene = {"wall": wall_hi, "post": post, "d": np.zeros(2)}
+
     def window(cs: np.ndarray, sl, ts: np.ndarray) -> np.ndarray:
         """The window ``sl`` (super-sampled slices) with the ball at the positions ``cs``
         (times ``ts``) averaged (the exposure), blurred and integrated over pixels."""
-        Uw, Vw, bw = U[sl], V[sl], wall_hi[sl]
+        Uw, Vw, bw = U[sl] + scene["d"][0], V[sl] + scene["d"][1], scene["wall"][sl]
+        post = scene["post"]
         acc = np.zeros(Uw.shape)
         for (cu, cv), t in zip(cs, ts, strict=True):
             bw_k = bw * _shadow(shot, Uw, Vw, cu, cv) if shot.shadow > 0 else bw
@@ -264,7 +271,19 @@ def render(shot: Shot) -> np.ndarray:
         late = shot.readout * np.arange(h) / h
         cs = shot.pixels(shot.plane_xy(k / shot.fps + offsets[:, None] + late[[0, -1]]
                                        ).reshape(-1, 2))
-        img = base.copy()
+        shift = np.zeros(2) if shot.camera is None else np.asarray(shot.camera[k], float)
+        if shift.any():  # the scene at p + d: the wall drawn again, the ball at c - d
+            wall_k = _wall(shot, U + shift[0], V + shift[1], shot.seed)
+            post_k = None
+            if shot.occluder_u is not None:
+                post_k = np.clip(3.0 - np.abs(U + shift[0] - shot.occluder_u), 0.0, 1.0)
+                wall_k = wall_k * (1 - post_k) + 30.0 * post_k
+            scene.update(wall=wall_k, post=post_k, d=shift)
+            img = down(blur(wall_k.astype(np.float32)))
+        else:
+            scene.update(wall=wall_hi, post=post, d=shift)
+            img = base.copy()
+        cs = cs - shift  # the window's bounds in the image
         # the window reaches two margins beyond the ball: the blur's halo (one margin) is
         # pasted, the outer margin only feeds the blur
         if shot.reflect > 0:  # the window holds the mirror image too

@@ -5,7 +5,9 @@ The pipeline, one pure function per stage (paper §3 did this by hand in Tracker
 1. :func:`read_frames`: a video file (mp4, avi, mov, ...) or a folder of image frames, as grey
    ``uint8`` frames plus the frame rate (from the file, or ``fps=`` which always wins: high-speed
    cameras often store a playback rate such as 30 fps rather than the capture rate).
-2. :func:`track_ball`: a background model (per-pixel temporal median), then in every frame a
+2. :func:`track_ball`: a background model (per-pixel temporal median; of the frames each
+   divided by its brightness where a lamp flickers, and moved back onto the background's pixels
+   where the camera moved: ``Track.camera_shift``, ``_camera.py``), then in every frame a
    coarse search (downsampled background difference, largest blob) or a search in a window
    around the position predicted from the two previous frames, and a sub-pixel measurement:
 
@@ -71,6 +73,7 @@ from ._output import PAPER_BALL_DIAMETER as PAPER_BALL_DIAMETER
 from ._output import TrackedVideo as TrackedVideo
 from ._output import compression_warning as compression_warning
 from ._output import radius_warning as radius_warning
+from ._output import camera_message as camera_message
 from ._output import tone_curve_warning as tone_curve_warning
 from ._output import overlay_image as overlay_image
 from ._output import track_record as track_record
@@ -94,7 +97,8 @@ from ._video import read_image as read_image
 __all__ = ["CENTROID", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND",
            "PAPER_BALL_DIAMETER", "POLARITIES", "TONE_CURVES", "VIDEO_SUFFIXES", "Calibration",
            "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
-           "TrackerConfig", "VideoSource", "background_model", "compression_warning",
+           "TrackerConfig", "VideoSource", "background_model", "camera_message",
+           "compression_warning",
            "detect_surface",
            "overlay_image", "plane_axes", "radius_warning", "read_frames", "read_image",
            "tone_curve_label", "tone_curve_warning",

@@ -890,22 +890,25 @@ def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float
     return _stack(pxs), np.concatenate(near)
 
 
+INSIDE_BLURS = 2.5  # the ball's inside for its brightness: this many blurs inside the rim
+
+
 def _ball_levels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
                  gains: np.ndarray) -> np.ndarray:
     """Each frame's ball brightness relative to its gain (the wall's), over the median of the
     frames': a lens's vignetting or a lamp's fall-off lights the ball unlike the wall as it
-    moves. From the mean grey level of the ball's inside (beyond 3 blurs and 1 px from its
-    rim, where the ball alone is seen), weighted by ``(1 - (rho / r_in)^2)^2`` so that the
-    mean does not jump as pixels cross the circle. Ones where the inside is under 2 px in
-    radius or holds a saturated pixel (a highlight does not scale)."""
+    moves. From the mean grey level of the ball's inside (beyond ``INSIDE_BLURS`` blurs and
+    0.5 px from its rim, where the ball alone is seen), weighted by ``(1 - (rho / r_in)^2)^2``
+    so that the mean does not jump as pixels cross the circle. Ones where the inside is under
+    1.5 px in radius or holds a saturated pixel (a highlight does not scale)."""
     sigma, exposure = held[:2]
     means = np.empty(len(args))
     for k, ((img, _, _, v), f) in enumerate(zip(args, fits, strict=True)):
-        r_in = f.r - 3.0 * _blur(np.array([f.cx, f.cy, f.r, sigma, exposure]), v) - 1.0
+        r_in = f.r - INSIDE_BLURS * _blur(np.array([f.cx, f.cy, f.r, sigma, exposure]), v) - 0.5
         u0, v0 = max(math.ceil(f.cx - r_in), 0), max(math.ceil(f.cy - r_in), 0)
         u1 = min(math.floor(f.cx + r_in) + 1, img.shape[1])
         v1 = min(math.floor(f.cy + r_in) + 1, img.shape[0])
-        if r_in < 2.0 or u1 <= u0 or v1 <= v0:
+        if r_in < 1.5 or u1 <= u0 or v1 <= v0:
             return np.ones(len(args))
         vv, uu = np.mgrid[v0:v1, u0:u1]
         w = np.clip(1.0 - ((uu - f.cx) ** 2 + (vv - f.cy) ** 2) / (r_in * r_in), 0.0, None) ** 2
@@ -1195,8 +1198,7 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     standard error stays the median's; the blur and light then the joint fit's).
     ``kappa``: the backgrounds' variance in units of the frames' noise variance, one map for
     the video (:func:`fit_edge`). None if fewer than 3 frames could be fitted."""
-    args = list(zip(frames, backgrounds, centres, velocities, strict=True))
-    gain = [float(g) for g in gains]
+    args, gain = list(zip(frames, backgrounds, centres, velocities, strict=True)), list(gains)
     # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
     # frames, spread: they only set the shared blur, exposure, light and the starting radius
     first = {int(i): fit_edge(*args[int(i)], r0, kappa=kappa)
@@ -1208,10 +1210,8 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     if more is not None and BLURRED <= blur <= MORE_FRAMES_MAX_BLUR:
         # blurred for its size: the blur the fits hold sets the radius; more frames for it
         *inputs, extra_gains = more()
-        extra = list(zip(*inputs, strict=True))
-        gain += [float(g) for g in extra_gains]
-        n = len(args)
-        args += extra
+        extra, n = list(zip(*inputs, strict=True)), len(args)
+        args, gain = args + extra, gain + list(extra_gains)
         for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
             first[int(i)] = fit_edge(*args[int(i)], r0, kappa=kappa)
         ok = [f for f in first.values() if f is not None]

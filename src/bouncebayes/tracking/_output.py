@@ -25,6 +25,7 @@ from ._geometry import (
     plane_axes,
     to_plane_frame,
 )
+from ._camera import shift_frames
 from ._measure import CENTROID, EDGE_FIT
 from ._tone import tone_curve_label
 from ._track import Track, TrackerConfig, background_model, track_ball
@@ -260,7 +261,11 @@ def _detected_surface(track: Track, source: VideoSource, background,
     near = {"centres": track.centre[track.trusted], "radius": track.ball_radius}
     surface = detect_surface(track.background, **near)
     if surface is None and track.tone_curve not in (None, "linear"):
-        stored = background_model(source.frames, n_frames) if background is None else background
+        frames = source.frames
+        if track.camera_shift.any():  # moved back as the track's frames were
+            frames = np.clip(np.rint(shift_frames(frames, track.camera_shift)), 0, 255
+                             ).astype(np.uint8)
+        stored = background_model(frames, n_frames) if background is None else background
         surface = detect_surface(stored, **near)
     return surface
 
@@ -403,6 +408,30 @@ def _coding_record(video: TrackedVideo) -> dict[str, object]:
             "tone_curve_warning": tone_curve_warning(video)}
 
 
+def camera_shift_max(track: Track) -> float:
+    """The largest shift (px) the camera had made in any frame (0: it did not move)."""
+    shift = track.camera_shift
+    return float(np.hypot(*shift.T).max()) if shift.size else 0.0
+
+
+def camera_message(track: Track) -> str | None:
+    """In words, where the camera moved: how far, in which frames, and what was done."""
+    shift = track.camera_shift
+    if not shift.size or not shift.any():
+        return None
+    size = np.hypot(*shift.T)
+    moved = np.flatnonzero(size > 0)
+    return (f"camera: moved by up to {size.max():.2f} px (in {len(moved)} frames, "
+            f"{moved[0]}-{moved[-1]}); those frames were moved back onto the background "
+            "before tracking (per-frame camera_du_px / camera_dv_px in the record)")
+
+
+def _camera_columns(track: Track, n: int) -> dict[str, list]:
+    """The record's per-frame camera shift (px), zeros where it did not move."""
+    shift = track.camera_shift if track.camera_shift.size else np.zeros((n, 2))
+    return {"camera_du_px": _floats(shift[:, 0], 4), "camera_dv_px": _floats(shift[:, 1], 4)}
+
+
 def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) -> dict:
     """The tracking record of one video (``<name>.track.json``): input, calibration with its
     uncertainty, surface with its angle's uncertainty, per-frame pixels and quality, a quality
@@ -423,7 +452,8 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
         "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
                     "threshold_grey": round(tr.threshold, 3),
                     "centre_offset_px": [round(v, 4) for v in tr.centre_offset],
-                    "refined_offset_px": [round(v, 4) for v in tr.refined_offset]},
+                    "refined_offset_px": [round(v, 4) for v in tr.refined_offset],
+                    "camera_shift_max_px": round(camera_shift_max(tr), 4)},
         "settings": settings,
         "ball": _ball_record(tr),
         "ball_radius_px": _optional(tr.ball_radius, 4),
@@ -451,7 +481,8 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                       "residual_grey": _floats(tr.residual, 3),
                       "visible": _floats(tr.visible, 4), "flag": tr.flag.astype(int).tolist(),
                       "refined": (tr.refined.astype(int).tolist() if tr.refined.size
-                                  else [0] * n)},
+                                  else [0] * n),
+                      **_camera_columns(tr, n)},
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._validate import check_choice, check_scalar
 from ._edge import SMALL_BALL_FIT, RadiusFit, spread
+from ._camera import stabilise
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import edge_offset, fit_ball_radius, frame_quality
 from ._tone import check_tone_curve, decode, decode_table
@@ -96,7 +97,10 @@ class Track:
     agree with the edge fits (a small ball's: none). ``tone_curve``: the camera's tone curve
     the frames were decoded by (``TrackerConfig.tone_curve``, None: not given, taken as
     linear; ``background``, ``contrast``, ``noise`` and ``threshold`` are in decoded grey
-    levels).
+    levels). ``camera_shift`` ``(n, 2)``: how far (px) the camera had moved in each frame
+    against the background, the frames moved back by it before anything was measured
+    (:mod:`._camera`; zeros where it did not move, and the centres are in the background's
+    pixels).
     """
 
     centre: np.ndarray
@@ -115,6 +119,7 @@ class Track:
     refined: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     refined_offset: tuple[float, float] = (0.0, 0.0)
     tone_curve: str | float | None = None
+    camera_shift: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
     @property
     def found(self) -> np.ndarray:
@@ -276,13 +281,12 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     frames = _check_frames(frames)
     if background is not None:
         background = _check_background(background, frames.shape[1:])
-    table = decode_table(config.tone_curve)
-    if table is not None:  # light, not the camera's grey levels (._tone)
+    if (table := decode_table(config.tone_curve)) is not None:  # light, not grey (._tone)
         frames = table[frames]
         if background is not None:
             background = decode(background, config.tone_curve).astype(np.float32)
-    bg = background_model(frames, config.background_frames) if background is None else \
-        background
+    # the frames moved back onto the background's pixels where the camera moved (._camera)
+    frames, bg, camera = stabilise(frames, functools.partial(_background, background, config))
     noise, sign = _noise_and_polarity(frames, bg, config)
     threshold = max(config.threshold_sigma * noise, config.min_contrast)
     state = _Searcher(bg, sign, threshold)
@@ -316,12 +320,19 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
                                             compiled=compiled)
     fitted = _fit_ball(frames, state, background is not None, centre, radius, method, flag,
                        config)
-    for a in (centre, radius, method, contrast, residual, visible, flag, fitted["refined"]):
+    for a in (centre, radius, method, contrast, residual, visible, flag, fitted["refined"],
+              camera):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, tone_curve=config.tone_curve,
-                 **fitted)
+                 camera_shift=camera, **fitted)
+
+
+def _background(given: np.ndarray | None, config: TrackerConfig, frames: np.ndarray
+                ) -> np.ndarray:
+    """The background ``given``, else the model of ``frames`` (:func:`background_model`)."""
+    return given if given is not None else background_model(frames, config.background_frames)
 
 
 def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config
