@@ -25,7 +25,8 @@ from bouncebayes.cli._track import add_track_subcommand, parse_numbers
 from bouncebayes.tracking import _track
 from bouncebayes.tracking import (CENTROID, EDGE_FIT, NOT_FOUND, Calibration, Surface,
                                   TrackerConfig, background_model, detect_surface, overlay_image,
-                                  read_frames, to_plane_frame, track_ball, track_video)
+                                  read_frames, read_image, to_plane_frame, track_ball,
+                                  track_video)
 from bouncebayes.data import write_trajectory
 
 NOISY = dict(exposure=1.0, noise_sigma=4.0, shadow=True)  # full-frame blur, noise, shadow
@@ -438,6 +439,74 @@ def test_video_file_gives_its_frame_rate_and_lossless_frames(clean, tmp_path):
     assert (source.name, source.fps, source.fps_source) == ("clip", 1000.0, "file")
     np.testing.assert_array_equal(source.frames, frames[:20])
     assert read_frames(path, fps=500).fps == 500.0  # the capture rate overrides the file's
+
+
+def _colour_clip(folder, ball_bgr, wall_bgr=(50.0, 110.0, 60.0), n=30):
+    """A disk of colour ``ball_bgr`` crossing a wall of ``wall_bgr`` (BGR, noise 2 grey
+    levels), written into ``folder`` as PNG frames (``png/``) and as a colour MJPEG video;
+    their paths and the frames."""
+    rng = np.random.default_rng(8)
+    v, u = np.mgrid[:60, :120].astype(float)
+    frames = []
+    for k in range(n):
+        disk = (np.hypot(u - 15.0 - 3.0 * k, v - 30.0) < 8.0)[..., None]
+        img = np.where(disk, np.array(ball_bgr), np.array(wall_bgr))
+        frames.append(np.clip(np.rint(img + rng.normal(0.0, 2.0, img.shape)), 0, 255
+                              ).astype(np.uint8))
+    png = folder / "png"
+    png.mkdir(parents=True)
+    for k, f in enumerate(frames):
+        cv2.imwrite(str(png / f"f{k:03d}.png"), f)
+    video = folder / "clip.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 1000.0, (120, 60),
+                             isColor=True)
+    for f in frames:
+        writer.write(f)
+    writer.release()
+    return png, video, np.array(frames)
+
+
+def test_a_ball_faint_in_the_luma_is_read_in_the_colour_channel_it_stands_out_in(tmp_path):
+    # a red ball (BGR 40, 48, 200) on a green wall (50, 110, 60): luma (BT.601) 92.6 against
+    # 88.2, 2.2 noise SDs; in the red channel 200 against 60 (measured: 29 times as far as in
+    # the luma from the MJPEG video). Expected: the red channel, the frames exactly the files'
+    # red (PNG), and the luma where asked
+    folder, video, frames = _colour_clip(tmp_path, (40.0, 48.0, 200.0))
+    source = read_frames(folder, fps=1000.0)
+    assert source.channel == "red" and "red channel" in source.channel_note
+    np.testing.assert_array_equal(source.frames, frames[..., 2])
+    assert read_frames(video).channel == "red"  # faint in the luma: even at half size
+    grey = read_frames(folder, fps=1000.0, channel="grey")
+    assert grey.channel == "grey" and grey.channel_note is None
+    np.testing.assert_array_equal(grey.frames[0], cv2.cvtColor(frames[0], cv2.COLOR_BGR2GRAY))
+    assert read_frames(folder, fps=1000.0, channel="green").channel == "green"
+    np.testing.assert_array_equal(read_image(folder / "f000.png", "red"), frames[0, ..., 2])
+    with pytest.raises(ValueError, match="channel"):
+        read_frames(folder, fps=1000.0, channel="purple")
+
+
+def test_a_ball_clear_in_the_luma_keeps_it_unless_a_lossless_channel_is_far_clearer(tmp_path):
+    # a bright ball (BGR 180, 180, 180) on the green wall: 92 grey levels above it in the luma,
+    # 120 in the red channel: the luma kept. A red ball (BGR 50, 90, 200: luma 118.3 against
+    # 88.2) stands out ~3 times as far in red (140 grey levels at noise 2, against 30 at the
+    # luma's 1.35): taken from PNG frames (colour at full size), not from MJPEG (colour at
+    # half size: 5x wanted)
+    folder, video, _ = _colour_clip(tmp_path / "grey", (180.0, 180.0, 180.0))
+    assert read_frames(folder, fps=1000.0).channel == "grey"
+    assert read_frames(video).channel == "grey"
+    folder, video, _ = _colour_clip(tmp_path / "red", (50.0, 90.0, 200.0))
+    assert read_frames(folder, fps=1000.0).channel == "red"
+    assert read_frames(video).channel == "grey"
+
+
+def test_a_grey_video_decoded_to_colour_is_read_as_grey(clean, tmp_path):
+    # OpenCV decodes every video to BGR; a grey one (its channels equal) is its luma, one
+    # plane read (the frames as written: FFV1 is lossless)
+    _, _, frames = clean
+    path = write_video(frames[:10], tmp_path / "grey.avi", 1000.0, "FFV1")
+    source = read_frames(path)
+    assert source.channel == "grey" and source.channel_note is None
+    np.testing.assert_array_equal(source.frames, frames[:10])
 
 
 @pytest.mark.parametrize("fourcc, suffix", [("MJPG", ".avi"), ("mp4v", ".mp4")])

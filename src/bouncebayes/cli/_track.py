@@ -35,7 +35,7 @@ DESCRIPTION = ("Find the ball in every frame of each video (sub-pixel; backgroun
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``track``."""
-    from ..tracking import PAPER_BALL_DIAMETER, POLARITIES, TrackerConfig
+    from ..tracking import CHANNELS, PAPER_BALL_DIAMETER, POLARITIES, TrackerConfig
 
     p.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                    help="video files (mp4, avi, mov, mkv, ...) or folders of image frames "
@@ -69,6 +69,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--background", type=Path, metavar="IMAGE",
                    help="an image of the scene without the ball; if not given, the per-pixel "
                         "median of frames (give one if the ball rests or moves slowly)")
+    p.add_argument("--channel", choices=CHANNELS, default="auto",
+                   help="what of colour frames to track: their luma (grey), one colour channel, "
+                        "or auto: the luma unless the ball hardly stands out of the background "
+                        "there and does in a channel (a red ball on a green wall as bright)")
     add_tone_curve(p)
     add_readout(p)
     add_quiet(p)
@@ -123,7 +127,7 @@ def _settings(args: argparse.Namespace) -> dict:
     check_scalar("--readout", args.readout, unit="s", low=0.0)
     return dict(fps=args.fps, config=config, ball_diameter=args.ball_diameter,
                 reference=reference, surface=surface, background=args.background,
-                readout=args.readout)
+                readout=args.readout, channel=args.channel)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -204,6 +208,7 @@ def settings_record(args: argparse.Namespace) -> dict:
     return {"polarity": args.polarity, "min_contrast": args.min_contrast,
             "threshold_sigma": args.threshold_sigma, "fps": args.fps,
             "tone_curve": tone_curve_label(args.tone_curve), "readout_s": args.readout,
+            "channel": args.channel,
             "ball_diameter_m": None if args.reference else args.ball_diameter,
             "reference": args.reference, "surface": args.surface,
             "background": str(args.background) if args.background else
@@ -233,4 +238,5 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
             + (f"\n  warning: {coded}" if (coded := compression_warning(src)) else "")
             + (f"\n  warning: {tone}" if (tone := tone_curve_warning(result)) else "")
             + (f"\n  {camera}" if (camera := camera_message(tr)) else "")
+            + (f"\n  colour: {src.channel_note}" if src.channel_note else "")
             + (f"\n  {gravity}" if gravity else ""))

@@ -53,10 +53,11 @@ on clean video: below the kinematics' standard errors for noise of a few grey le
 for nearly noise-free video.
 
 Limits: one ball, darker or brighter than its surroundings all round its rim (``polarity``);
-grey levels only (colour video is converted to grey); a ball radius of at least ~4 px; the ball
-must move by more than a diameter over the video, or the median background contains it (give a
-``background`` image of the empty scene then); all frames are held in memory (``n * h * w``
-bytes).
+grey levels only (colour video is converted to grey: its luma, or the colour channel where the
+ball stands out far more clearly, ``read_frames(channel=...)``); a ball radius of at least ~4
+px; the ball must move by more than a diameter over the video, or the median background
+contains it (give a ``background`` image of the empty scene then); all frames are held in
+memory (``n * h * w`` bytes; four times that while a colour video is read).
 """
 
 from ._geometry import Calibration as Calibration
@@ -86,6 +87,7 @@ from ._track import Track as Track
 from ._track import TrackerConfig as TrackerConfig
 from ._track import background_model as background_model
 from ._track import track_ball as track_ball
+from ._video import CHANNELS as CHANNELS
 from ._video import IMAGE_SUFFIXES as IMAGE_SUFFIXES
 from ._video import VIDEO_SUFFIXES as VIDEO_SUFFIXES
 from ._tone import TONE_CURVES as TONE_CURVES
@@ -94,7 +96,7 @@ from ._video import VideoSource as VideoSource
 from ._video import read_frames as read_frames
 from ._video import read_image as read_image
 
-__all__ = ["CENTROID", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND",
+__all__ = ["CENTROID", "CHANNELS", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND",
            "PAPER_BALL_DIAMETER", "POLARITIES", "TONE_CURVES", "VIDEO_SUFFIXES", "Calibration",
            "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
            "TrackerConfig", "VideoSource", "background_model", "camera_message",

@@ -189,7 +189,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
                 | tuple[Sequence[float], Sequence[float], float, float | None] | None = None,
                 surface: Surface | None = None,
                 background: np.ndarray | str | os.PathLike | None = None,
-                readout: float = 0.0) -> TrackedVideo:
+                readout: float = 0.0, channel: str = "auto") -> TrackedVideo:
     """Read, track, calibrate and rotate one video into the plane frame.
 
     Arguments:
@@ -204,12 +204,14 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         surface: the surface line; default :func:`detect_surface` on the background model.
         readout: a rolling shutter's readout time, s from the top row to the bottom (0: a
             global shutter); each centre is timed by its row (:func:`to_plane_frame`).
+        channel: what of colour frames to track, as :func:`read_frames` (a background image
+            file is read the same way).
 
     Raises:
         InputFileError: naming the file, for unreadable input, unknown fps, no ball found (or
             in fewer than 3 frames), no surface line detected.
     """
-    source = read_frames(path, fps=fps)
+    source = read_frames(path, fps=fps, channel=channel)
     if not 0.0 <= readout <= 1.0 / source.fps:  # before the tracking's work
         raise InputFileError(source.path, f"a rolling shutter's readout of {readout:g} s is "
                              f"not from 0 to the frame interval, {1.0 / source.fps:g} s at "
@@ -243,7 +245,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
 
 
 def _background_file(path: str | os.PathLike, source: VideoSource) -> np.ndarray:
-    image = read_image(path)
+    image = read_image(path, source.channel)
     if image.shape != source.frames.shape[1:]:
         (h, w), (fh, fw) = image.shape, source.frames.shape[1:]
         raise InputFileError(path, f"background image is {w}x{h} but the frames of "
@@ -448,6 +450,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
         "bouncebayes_version": __version__,
         "frames": n, "width": w, "height": h,
         "fps": src.fps, "fps_source": src.fps_source,
+        "channel": src.channel, "channel_note": src.channel_note,
         **_coding_record(video),
         "tracker": {"polarity": tr.polarity, "noise_grey": round(tr.noise, 3),
                     "threshold_grey": round(tr.threshold, 3),
