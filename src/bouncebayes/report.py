@@ -503,7 +503,8 @@ def _scale_note(trials) -> list[str]:
 def _tracking_section(folder: str | Path) -> list[str]:
     """Where the run tracked videos: one row per video from its tracking record (frames, the
     ball's radius, the scale with its stated SD, what the flights' fall says, the record's
-    warnings in words) and the first video's overlay image."""
+    warnings and notes in words: the camera's motion, the colour channel) and the first
+    video's overlay image."""
     records = sorted((Path(folder) / "trajectories").glob("*.track.json"))
     if not records:
         return []
@@ -512,9 +513,12 @@ def _tracking_section(folder: str | Path) -> list[str]:
         r = json.loads(path.read_text(encoding="utf-8"))
         cal, fall, q = r["calibration"], r.get("gravity"), r["quality"]
         sd = cal.get("relative_sd")
+        moved = r["tracker"].get("camera_shift_max_px") or 0.0
         said = [w for w in (r["ball"].get("warning"), r.get("compression_warning"),
                             r.get("tone_curve_warning"),
-                            None if fall is None or fall["agrees"] else fall["summary"]) if w]
+                            None if fall is None or fall["agrees"] else fall["summary"],
+                            f"the camera moved by up to {moved:.2g} px (the frames moved back)"
+                            if moved else None, r.get("channel_note")) if w]
         rows.append([path.name.removesuffix(".track.json"),
                      f"{q['found']} of {r['frames']} ({q['flagged']} flagged)",
                      f"{r['ball']['radius_px']:.3g}",
@@ -524,7 +528,7 @@ def _tracking_section(folder: str | Path) -> list[str]:
                                               f"{100 * fall['scale_sd']:.2f} %",
                      "; ".join(said) or "none"])
     header = ["video", "frames with the ball", "radius (px)", "scale (mm/px)",
-              "lengths off by (the fall)", "warnings"]
+              "lengths off by (the fall)", "warnings and notes"]
     overlay = Path(folder) / "tracking" / f"{rows[0][0]}.overlay.png"
     figure = ([f"<figure>{_img(overlay, 'tracked positions over the frames')}<figcaption>"
                f"{html.escape(rows[0][0])}: every tracked centre over a superposition of the "

@@ -302,13 +302,28 @@ def _across(segment, u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _refined(segment, edges: np.ndarray) -> Surface:
-    """The line through ``segment`` fitted (Huber) to the edge pixels within 2 px of it."""
+    """The line through ``segment`` fitted (Huber) to the edge pixels within 2 px of it, then
+    again to those within 2 px of the line fitted, until the pixels no longer change (at most
+    ``REFIT_ROUNDS`` times). Once was not enough where the Hough segment is a short piece of a
+    broken edge, tilted: on a rendered MJPEG clip (a 14 px ball, wall 50 +- 12 grey levels,
+    the surface at 3 degrees) its pixels gave 2.46 +- 0.11 degrees, 5 SDs off; the rounds
+    2.64, 2.73, 2.82, 2.87, 2.92, 2.97 +- 0.08 (the pixels at the ends only come within 2 px
+    of the line as it turns)."""
     vs, us = np.nonzero(edges)
     near = np.abs(_across(segment, us, vs)) <= 2.0
-    pts = np.column_stack([us[near], vs[near]]).astype(np.float32)
-    dx, dy, px, py = cv2.fitLine(pts, cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
+    for _ in range(REFIT_ROUNDS):
+        pts = np.column_stack([us[near], vs[near]]).astype(np.float32)
+        dx, dy, px, py = cv2.fitLine(pts, cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
+        line = (float(px), float(py), float(px + dx), float(py + dy))
+        again = np.abs(_across(line, us, vs)) <= 2.0
+        if np.array_equal(again, near) or again.sum() < 2:
+            break
+        near = again
     return Surface(point=(float(px), float(py)), direction=(float(dx), float(dy)),
                    source="detected", angle_sd_deg=_angle_sd(pts, (dx, dy), (px, py)))
+
+
+REFIT_ROUNDS = 10
 
 
 def _angle_sd(pts: np.ndarray, direction, point) -> float:
@@ -329,6 +344,8 @@ def _angle_sd(pts: np.ndarray, direction, point) -> float:
 
 
 CORRELATION_PX = 4.0
+
+
 
 
 class PlaneTrajectory(NamedTuple):
