@@ -26,7 +26,8 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   super-sampled pixel).
 - **Background**: a continuous textured wall (sum of random-phase plane waves), the surface
   line with a darker plane below it; optional lit band above the surface, a static occluder
-  (a vertical post in front of the ball), a contact shadow under the ball, and a glossy
+  (a vertical post in front of the ball), a contact shadow under the ball, the ball's shadow
+  cast on the wall by a lamp (``cast``: an offset disk, its penumbra 0.3 radii wide), a glossy
   surface (``reflect``: the ball's mirror image below the surface line, its radiance times
   the reflectance added to the plane's).
 - **Camera motion** (``camera``, one ``(du, dv)`` per frame): frame ``k`` shows the scene
@@ -120,6 +121,8 @@ class Shot:
     shadow: float = 0.0               # depth (0-1) of a soft contact shadow under the ball
     reflect: float = 0.0              # reflectance of a glossy surface: the ball's mirror image
     camera: tuple[tuple[float, float], ...] | None = None  # per frame: the camera's shift (px)
+    cast: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the ball's shadow on the wall: its
+    #                                   offset from the ball (u, v, in radii) and depth (0-1)
     # sensor and codec
     read_noise: float = 1.5
     shot: float = 0.05
@@ -252,6 +255,10 @@ def render(shot: Shot) -> np.ndarray:
         acc = np.zeros(Uw.shape)
         for (cu, cv), t in zip(cs, ts, strict=True):
             bw_k = bw * _shadow(shot, Uw, Vw, cu, cv) if shot.shadow > 0 else bw
+            if shot.cast[2] > 0:  # a lamp casts the ball's shadow on the wall behind it
+                r = shot.radius_px
+                d = np.hypot(Uw - cu - shot.cast[0] * r, Vw - cv - shot.cast[1] * r) / r
+                bw_k = bw_k * (1.0 - shot.cast[2] * np.clip((1.15 - d) / 0.3, 0.0, 1.0))
             cover, rad = _ball(shot, Uw - cu, Vw - cv, sub, t)
             comp = bw_k * (1 - cover) + rad * cover
             if shot.reflect > 0:  # the ball mirrored in the surface, seen below it

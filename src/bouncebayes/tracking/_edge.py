@@ -310,6 +310,34 @@ class RadiusFit(NamedTuple):
     centre_sd: float = math.nan  # per-frame SD of the tracked centres, per coordinate (px)
     light: tuple[float, float] = (math.nan, math.nan)  # the light's azimuth, elevation (rad)
     method: str = EDGE_MODEL  # what gave ``radius``: EDGE_MODEL or SMALL_BALL_FIT (._refine)
+    # the fraction of the frames fitted where the wall beside the ball is not the background
+    # model's in some of its sectors (left out of the fits: foreign_fraction)
+    foreign: float = 0.0
+
+
+def foreign_fraction(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
+                     centres: np.ndarray, r: float, sigma: float) -> float:
+    """The fraction of ``frames`` (each with its ``backgrounds`` scaled to it, the ball at
+    ``centres``, radius ``r`` and blur ``sigma``, px) where some polar sectors of the wall just
+    beyond the ball's blurred rim are not the background's
+    (:func:`._edge_kernel.foreign_sectors`, on the pixels the fits read there)."""
+    from ._edge_kernel import BAND_BLURS, BAND_PX, foreign_sectors
+
+    band_from = r + BAND_BLURS * math.sqrt(sigma * sigma + 1.0 / 12.0)
+    reach = band_from + BAND_PX
+    hit = 0
+    for img, bg, c in zip(frames, backgrounds, centres, strict=True):
+        u0, v0 = int(math.floor(c[0] - reach)), int(math.floor(c[1] - reach))
+        u1, v1 = int(math.ceil(c[0] + reach)) + 1, int(math.ceil(c[1] + reach)) + 1
+        if u0 < 0 or v0 < 0 or u1 > img.shape[1] or v1 > img.shape[0]:
+            continue
+        vv, uu = np.mgrid[v0:v1, u0:u1].astype(np.float64)
+        du, dv = (uu - c[0]).ravel(), (vv - c[1]).ravel()
+        rho = np.hypot(du, dv)
+        ring = (rho > r) & (rho <= reach)
+        res = (img[v0:v1, u0:u1].astype(np.float64) - bg[v0:v1, u0:u1]).ravel()
+        hit += bool(foreign_sectors(res[ring], du[ring], dv[ring], rho[ring], band_from).any())
+    return hit / max(len(frames), 1)
 
 
 class _Pixels(NamedTuple):
@@ -593,6 +621,12 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: b
     if sat.any():
         near &= ~_grow(sat, 1)
     idx = np.flatnonzero(near)
+    # the wall beside the ball as the background model has it (a lamp's shadow of the ball)
+    from ._edge_kernel import foreign_sectors
+
+    res0 = sub.ravel()[idx] - bg[v0:v1, u0:u1].ravel()[idx]
+    idx = idx[~foreign_sectors(res0.astype(np.float64), uu.ravel()[idx] - c[0],
+                               vv.ravel()[idx] - c[1], rho.ravel()[idx], reach - 2.0)]
     if idx.size > MAX_PIXELS:  # a large ball: every k-th pixel (raster order) holds the edge
         idx = idx[::-(-idx.size // MAX_PIXELS)]
     n = idx.size

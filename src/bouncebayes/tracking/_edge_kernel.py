@@ -890,3 +890,61 @@ def fit_frame(q0, free, lo, hi, x_scale, xtol, ftol, max_nfev, u, v, dir_u, dir_
             lam *= nu
             nu *= 2.0
     return q, res, status
+
+
+SECTORS = 24     # polar sectors of the ring whose wall is checked against the background
+BAND_PX = 2.0    # px: the band beyond the blurred rim (from three blurs out) that is checked
+BAND_BLURS = 3.0
+FOREIGN = 4.0    # robust SDs: a sector whose band differs more in the median is left out
+SECTOR_REACH = 2  # sectors either side of one left out that go with it (a shadow's arc on
+#                   the rim is wider than on the band outside it)
+
+
+@njit(cache=True)
+def foreign_sectors(res, du, dv, rho, band_from):
+    """Where the wall beside the ball is not the background model's, for the edge model's and
+    the per-frame fits' pixels (offsets ``du, dv`` from the centre, ``rho`` their distance,
+    ``res`` the frame less the background; 1-D): the pixels of the polar sectors (``SECTORS``
+    of them, and ``SECTOR_REACH`` either side) whose pixels from ``band_from`` out (three blurs
+    beyond the rim: the wall alone) differ from the background by more than ``FOREIGN`` robust
+    SDs in the median (sectors with fewer than 3 such pixels are not judged). A lamp's shadow of the ball on the wall (rendered: a bright 12 px ball, its
+    shadow half as bright as the wall and overlapping it, in every frame alike so that no
+    frame was flagged: the radius +6.7 % and the centres 1.0 px off), a contact shadow, a
+    reflection. None where more than half the sectors would go (the background itself is off
+    there, or the band holds the rim's light)."""
+    n = res.size
+    out = np.zeros(n, np.bool_)
+    sector = np.empty(n, np.int64)
+    nb = 0
+    for i in range(n):
+        a = (math.atan2(dv[i], du[i]) + math.pi) / (2.0 * math.pi)
+        sector[i] = int(a * SECTORS) % SECTORS
+        if rho[i] >= band_from:
+            nb += 1
+    if nb < 4 * SECTORS:
+        return out
+    band = np.empty(nb)
+    which = np.empty(nb, np.int64)
+    k = 0
+    for i in range(n):
+        if rho[i] >= band_from:
+            band[k], which[k] = res[i], sector[i]
+            k += 1
+    sd = 1.4826 * np.median(np.abs(band - np.median(band))) + 0.5
+    bad = np.zeros(SECTORS, np.bool_)
+    count = 0
+    for j in range(SECTORS):
+        vals = band[which == j]
+        if vals.size >= 3 and abs(np.median(vals)) > FOREIGN * sd:
+            bad[j] = True
+            count += 1
+    if count == 0 or 2 * count > SECTORS:
+        return out
+    grown = bad.copy()
+    for j in range(SECTORS):
+        if bad[j]:
+            for o in range(-SECTOR_REACH, SECTOR_REACH + 1):
+                grown[(j + o) % SECTORS] = True
+    for i in range(n):
+        out[i] = grown[sector[i]]
+    return out

@@ -304,6 +304,9 @@ def _ball_record(tr: Track) -> dict[str, object]:
             # the small-ball fit) holds (degrees; 90: lit from the camera, no shadow at the rim)
             "light_azimuth_deg": light[0], "light_elevation_deg": light[1],
             "centre_sd_px": _optional(fit.centre_sd, 4) if fit is not None else None,
+            # the fraction of the frames fitted where the wall beside the ball is not the
+            # background's on some side (those sides left out)
+            "foreign_fraction": _optional(fit.foreign, 3) if fit is not None else None,
             "warning": radius_warning(tr)}
 
 
@@ -362,6 +365,11 @@ def tone_curve_warning(video: TrackedVideo) -> str | None:
             "or --reference")
 
 
+# the fraction of the frames fitted whose wall beside the ball is not the background's on
+# some side, from which the ball's radius gets a warning (RadiusFit.foreign)
+FOREIGN_WARNING = 0.5
+
+
 def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
     unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (blurred
@@ -382,6 +390,13 @@ def radius_warning(track: Track) -> str | None:
         return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
                 "px: its radius, and the --ball-diameter scale, may be off by several percent "
                 "(the stated uncertainty allows for it); give --reference for a better scale")
+    if fit.foreign >= FOREIGN_WARNING:
+        return (f"in {100 * fit.foreign:.0f} % of the frames fitted the wall beside the ball "
+                "is not the background model's on some side (a shadow of the ball cast on the "
+                "wall by a lamp, a reflection, a lit patch that moves with it): that side of its "
+                "edge was left out, but its radius and centres can still be off by a few per "
+                "cent and a few tenths of a pixel; light the scene so that the ball casts no "
+                "shadow beside it, or give --reference")
     rel = radius_relative_sd(fit.radius, fit.radius_se, fit.sigma, fit.method)
     if rel > UNCERTAIN_RADIUS and fit.method == EDGE_MODEL \
             and fit.sigma > PSF_SHAPE_FROM * fit.radius:

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from ._edge import (CENTRE_FIT_BLUR, MAX_FRAMES, MAX_FRAMES_BLURRED, RadiusFit, _FrameInputs,
-                    fit_radius, spread)
+                    fit_radius, foreign_fraction, spread)
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
 
 FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
@@ -165,7 +165,10 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     # renderer, MJPEG, radius 10 px, this is 0.05-0.10 px where the centroids' true RMS error
     # is 0.05-0.13 px, docs/tracking.md); correlated along the track (texture, codec)
     shift, spread_px = edge_offset(fit, centre, np.ones(len(centre), bool))
-    return fit._replace(centre_sd=spread_px), shift
+    foreign = foreign_fraction([frames[k] for k in fit.frames],
+                               [gains[k] * bg for k in fit.frames], fit.centres, fit.radius,
+                               fit.sigma)
+    return fit._replace(centre_sd=spread_px, foreign=foreign), shift
 
 
 def edge_offset(fit: RadiusFit, centre: np.ndarray, use: np.ndarray

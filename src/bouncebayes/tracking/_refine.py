@@ -66,7 +66,7 @@ import numpy as np
 from numba import njit
 
 from ._edge import median_and_se, spread
-from ._edge_kernel import _cho_solve, _cholesky, _shadow
+from ._edge_kernel import BAND_BLURS, BAND_PX, _cho_solve, _cholesky, _shadow, foreign_sectors
 
 SMALL_RADIUS = 8.0   # px: balls up to this radius are fitted over their whole disk, and the
 #                      fit's radius is the ball's; larger ones over their rim only (INNER_BLURS),
@@ -213,9 +213,12 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     smear2 = (exposure * speed) ** 2 / 12.0
     base = sigma * sigma + 1.0 / 12.0
     reach = r + REACH_PX + REACH_BLURS * math.sqrt(base + smear2)
+    # the wall beyond the blurred rim, read to check it against the background (not fitted)
+    band_from = r + BAND_BLURS * math.sqrt(base + smear2)
+    gather = max(reach, band_from + BAND_PX)
     # the pixels in the frame (a ball near its edge: the ring outside it is cut)
-    u0, v0 = max(int(math.floor(cx - reach)), 0), max(int(math.floor(cy - reach)), 0)
-    u1, v1 = min(int(math.ceil(cx + reach)) + 1, w), min(int(math.ceil(cy + reach)) + 1, h)
+    u0, v0 = max(int(math.floor(cx - gather)), 0), max(int(math.floor(cy - gather)), 0)
+    u1, v1 = min(int(math.ceil(cx + gather)) + 1, w), min(int(math.ceil(cy + gather)) + 1, h)
     if u1 - u0 < 3 or v1 - v0 < 3:
         return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
     n_max = (u1 - u0) * (v1 - v0)
@@ -229,7 +232,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     for i in range(v0, v1):
         for j in range(u0, u1):
             d2 = (j - cx) ** 2 + (i - cy) ** 2
-            if d2 <= reach * reach and d2 >= inner * inner:
+            if d2 <= gather * gather and d2 >= inner * inner:
                 pu[n], pv[n] = j, i
                 grey[n], back[n] = frame[i, j], gain * bg[i, j]
                 if occlusion:  # the background's gradient: central differences
@@ -238,6 +241,15 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                     gbu[n] = gain * (bg[i, jb] - bg[i, ja]) / (jb - ja)
                     gbv[n] = gain * (bg[ib, j] - bg[ia, j]) / (ib - ia)
                 n += 1
+    # the wall beside the ball as the background model has it (a lamp's shadow of the ball:
+    # _edge_kernel.foreign_sectors)
+    du, dv = pu[:n] - cx, pv[:n] - cy
+    rho = np.sqrt(du * du + dv * dv)
+    keep = np.flatnonzero(~foreign_sectors(grey[:n] - back[:n], du, dv, rho, band_from)
+                          & (rho <= reach))
+    pu, pv, grey, back = pu[keep], pv[keep], grey[keep], back[keep]
+    gbu, gbv = gbu[keep], gbv[keep]
+    n = keep.size
     n_nl = 3 if r_free else 2
     n_sh = N_SHADOW if el < 0.5 * math.pi else 0  # lit from the camera: no shadow column
     n_lin = N_LIN + n_sh
