@@ -31,9 +31,10 @@ The pipeline, one pure function per stage (paper §3 did this by hand in Tracker
    The ball's radius, and so the ``--ball-diameter`` scale, comes from its edge
    (``_edge.py``): a blurred, shaded sphere fitted to ~9 frames, with the local ball and
    background levels on each side of the edge, the lens blur and the exposure's smear free;
-   the median radius and its standard error (``Track.radius_fit``). The same fits give the
-   ball's centre, and the coverage centroids are shifted by their median difference (a
-   constant bias of the centroid under side light).
+   the median radius and its standard error (``Track.radius_fit``); the sides of the rim
+   whose wall is not the background's (a lamp's shadow of the ball on the wall) left out,
+   and said. The same fits give the ball's centre, and the coverage centroids are shifted by
+   their median difference (a constant bias of the centroid under side light).
 3. :class:`Calibration` (metres per pixel, from a reference length or the ball diameter) and
    :class:`Surface` (the surface line, from two points or :func:`detect_surface`).
 4. :func:`to_plane_frame`: ``x`` along the surface in the direction of travel, ``y`` along the
