@@ -945,6 +945,8 @@ def foreign_sectors(res, du, dv, rho, band_from):
         if bad[j]:
             for o in range(-SECTOR_REACH, SECTOR_REACH + 1):
                 grown[(j + o) % SECTORS] = True
+    if 2 * grown.sum() > SECTORS:  # half the rim at least is kept
+        grown = bad
     for i in range(n):
         out[i] = grown[sector[i]]
     return out
