@@ -71,8 +71,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "median of frames (give one if the ball rests or moves slowly)")
     p.add_argument("--channel", choices=CHANNELS, default="auto",
                    help="what of colour frames to track: their luma (grey), one colour channel, "
-                        "or auto: the luma unless the ball hardly stands out of the background "
-                        "there and does in a channel (a red ball on a green wall as bright)")
+                        "or auto: the luma unless the ball stands out of the background twice "
+                        "as clearly in a channel (five times for video files and JPEG frames, "
+                        "whose colour is stored at half size; a red ball on a green wall)")
     add_tone_curve(p)
     add_readout(p)
     add_quiet(p)

@@ -19,6 +19,9 @@ made again from the moved frames and the remaining shifts fitted against it, up 
 times (one Gauss-Newton step is ~10 % short of a shift of 0.5 px): the centres are then in
 the scene's pixels, and ``Track.camera_shift`` holds each frame's shift.
 
+Where the camera moved, the frames are held as float32 while they are moved (four times their
+memory as grey uint8) and rounded back at the end.
+
 Written here because OpenCV's registration (``findTransformECC``, ``phaseCorrelate``) works on
 whole images, ~5-20 ms a frame at 640 x 480: the whole budget of the tracker's 1000 frames/s;
 this reads 2000 pixels of each frame (25-50 us a frame at 224 x 64 and 640 x 480), and the

@@ -35,7 +35,10 @@ blurred::
   lowers the cost by less than ``SHADOW_MIN_GAIN`` residual variances or the blur exceeds
   ``SHADOW_MAX_BLUR`` of the radius, nor videos where most first fits have none (but a
   blurred ball's frames fitted together look for it again, :func:`joint_radius`);
-- the local background level on each side (``o``): a shadow, flicker.
+- the local background level on each side (``o``): a shadow, flicker; the polar sectors whose
+  wall beyond the rim is not the background's (a lamp's shadow of the ball) are left out
+  (:func:`._edge_kernel.foreign_sectors`), and where frames are fitted together each frame's
+  shading is scaled by how brightly the ball is lit there (:func:`_ball_levels`).
 
 So the ball and background levels on each side of the edge are fitted, never assumed. For each
 ``(c, r, sigma, a, az, el)`` the linear coefficients are solved by least squares (variable
@@ -604,7 +607,9 @@ def _near_saturated(img: np.ndarray, px: _Pixels, steps: int) -> np.ndarray:
 def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: bool,
             kappa: np.ndarray | None) -> _Pixels | None:
     """Pixels of one frame with ``r0 - inner <= rho <= r0 + outer`` from ``c``, saturated ones
-    and their neighbours left out, with the background's gradient where ``occlusion`` (else
+    and their neighbours left out, and the polar sectors whose wall beyond the rim (the
+    outermost ``BAND_PX``) is not the background's (:func:`._edge_kernel.foreign_sectors`),
+    with the background's gradient where ``occlusion`` (else
     zero: no occlusion term) and its relative variance ``kappa`` (a map as the frame's; None:
     the background taken as exact); None if they leave the frame."""
     h, w = img.shape
@@ -622,11 +627,11 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: b
         near &= ~_grow(sat, 1)
     idx = np.flatnonzero(near)
     # the wall beside the ball as the background model has it (a lamp's shadow of the ball)
-    from ._edge_kernel import foreign_sectors
+    from ._edge_kernel import BAND_PX, foreign_sectors
 
     res0 = sub.ravel()[idx] - bg[v0:v1, u0:u1].ravel()[idx]
     idx = idx[~foreign_sectors(res0.astype(np.float64), uu.ravel()[idx] - c[0],
-                               vv.ravel()[idx] - c[1], rho.ravel()[idx], reach - 2.0)]
+                               vv.ravel()[idx] - c[1], rho.ravel()[idx], reach - BAND_PX)]
     if idx.size > MAX_PIXELS:  # a large ball: every k-th pixel (raster order) holds the edge
         idx = idx[::-(-idx.size // MAX_PIXELS)]
     n = idx.size
@@ -904,8 +909,9 @@ def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float
     """The pixels of every frame of ``args`` as one set, each with the robust weights of its
     own fit ``fits`` under ``held``, and whether each is within ``SATURATED_REACH`` blurs of a
     saturated pixel; None where a frame's cannot be had. Each frame's grey levels are divided
-    by its gain ``gains`` (its weights multiplied by it: the same cost): the lamp that lights
-    the wall lights the ball, so one shading of the ball holds every frame under flicker."""
+    by ``gains`` (its gain times the ball's brightness against the wall's, :func:`_ball_levels`;
+    its weights multiplied by it: the same cost), so that one shading of the ball holds every
+    frame under a flickering lamp or a vignetting lens."""
     sigma, exposure, az, el = held
     pxs, near = [], []
     for (img, bg, _, v), f, g in zip(args, fits, gains, strict=True):

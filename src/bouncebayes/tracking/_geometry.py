@@ -346,8 +346,6 @@ def _angle_sd(pts: np.ndarray, direction, point) -> float:
 CORRELATION_PX = 4.0
 
 
-
-
 class PlaneTrajectory(NamedTuple):
     """Found frames only: time (s, frame index / fps) and position (m) in the plane frame."""
 

@@ -16,7 +16,7 @@ from .._validate import check_choice, check_scalar
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".mpg", ".mpeg", ".wmv")
 # what of a colour frame is tracked: "grey" its luma (BT.601, OpenCV's), or one colour channel;
-# "auto": the luma unless the ball hardly stands out in it and does in a channel (_choose)
+# "auto": the luma unless the ball stands out far more clearly in a channel (_choose)
 CHANNELS = ("auto", "grey", "red", "green", "blue")
 _PLANES = ("grey", "red", "green", "blue")
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".bmp")
