@@ -156,7 +156,7 @@ def stabilise(frames: np.ndarray, background: Callable[[np.ndarray], np.ndarray]
     total = np.zeros((len(frames), 2))
     if not moved(*frame_shifts(frames, bg)):
         return frames, bg, total
-    moved_frames = frames.astype(np.float32)
+    moved_frames = None
     shifts, se = frame_shifts(frames, bg, FINE_GRID)
     for _ in range(ROUNDS):
         # a frame moved only where its shift tells: a still camera's frames stay as they are
@@ -170,5 +170,12 @@ def stabilise(frames: np.ndarray, background: Callable[[np.ndarray], np.ndarray]
         moved_frames = shift_frames(frames, total)
         bg = background(moved_frames)
         shifts, se = frame_shifts(moved_frames, bg, FINE_GRID)
-    out = np.clip(np.rint(moved_frames), 0, 255).astype(np.uint8)
+    if moved_frames is None:  # no frame's fine shift tells: as given
+        return frames, bg, total
+    out = rounded(moved_frames)
     return out, background(out), total
+
+
+def rounded(frames: np.ndarray) -> np.ndarray:
+    """Frames moved back (:func:`shift_frames`) as the grey levels the tracker reads (uint8)."""
+    return np.clip(np.rint(frames), 0, 255).astype(np.uint8)

@@ -330,10 +330,9 @@ def foreign_fraction(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndar
     reach = band_from + BAND_PX
     hit = 0
     for img, bg, c in zip(frames, backgrounds, centres, strict=True):
-        u0, v0 = int(math.floor(c[0] - reach)), int(math.floor(c[1] - reach))
-        u1, v1 = int(math.ceil(c[0] + reach)) + 1, int(math.ceil(c[1] + reach)) + 1
-        if u0 < 0 or v0 < 0 or u1 > img.shape[1] or v1 > img.shape[0]:
+        if (window := _window(c, reach, img.shape)) is None:
             continue
+        u0, v0, u1, v1 = window
         vv, uu = np.mgrid[v0:v1, u0:u1].astype(np.float64)
         du, dv = (uu - c[0]).ravel(), (vv - c[1]).ravel()
         rho = np.hypot(du, dv)
@@ -341,6 +340,16 @@ def foreign_fraction(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndar
         res = (img[v0:v1, u0:u1].astype(np.float64) - bg[v0:v1, u0:u1]).ravel()
         hit += bool(foreign_sectors(res[ring], du[ring], dv[ring], rho[ring], band_from).any())
     return hit / max(len(frames), 1)
+
+
+def _window(c, reach: float, shape: tuple[int, ...]) -> tuple[int, int, int, int] | None:
+    """The columns and rows ``u0, v0, u1, v1`` (ends exclusive) of the pixels within ``reach``
+    of ``c``; None where they leave a frame of ``shape``."""
+    u0, v0 = int(math.floor(c[0] - reach)), int(math.floor(c[1] - reach))
+    u1, v1 = int(math.ceil(c[0] + reach)) + 1, int(math.ceil(c[1] + reach)) + 1
+    if u0 < 0 or v0 < 0 or u1 > shape[1] or v1 > shape[0]:
+        return None
+    return u0, v0, u1, v1
 
 
 class _Pixels(NamedTuple):
@@ -614,10 +623,9 @@ def _pixels(img, bg, c, vel, r0: float, inner: float, outer: float, occlusion: b
     the background taken as exact); None if they leave the frame."""
     h, w = img.shape
     reach = r0 + outer
-    u0, v0 = int(math.floor(c[0] - reach)), int(math.floor(c[1] - reach))
-    u1, v1 = int(math.ceil(c[0] + reach)) + 1, int(math.ceil(c[1] + reach)) + 1
-    if u0 < 0 or v0 < 0 or u1 > w or v1 > h:
+    if (window := _window(c, reach, img.shape)) is None:
         return None
+    u0, v0, u1, v1 = window
     sub = img[v0:v1, u0:u1].astype(np.float64)
     vv, uu = np.mgrid[v0:v1, u0:u1].astype(np.float64)
     rho = np.hypot(uu - c[0], vv - c[1])

@@ -25,7 +25,7 @@ from ._geometry import (
     plane_axes,
     to_plane_frame,
 )
-from ._camera import shift_frames
+from ._camera import rounded, shift_frames
 from ._measure import CENTROID, EDGE_FIT
 from ._tone import tone_curve_label
 from ._track import Track, TrackerConfig, background_model, track_ball
@@ -265,8 +265,7 @@ def _detected_surface(track: Track, source: VideoSource, background,
     if surface is None and track.tone_curve not in (None, "linear"):
         frames = source.frames
         if track.camera_shift.any():  # moved back as the track's frames were
-            frames = np.clip(np.rint(shift_frames(frames, track.camera_shift)), 0, 255
-                             ).astype(np.uint8)
+            frames = rounded(shift_frames(frames, track.camera_shift))
         stored = background_model(frames, n_frames) if background is None else background
         surface = detect_surface(stored, **near)
     return surface
