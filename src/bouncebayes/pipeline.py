@@ -87,16 +87,17 @@ def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], Non
 
 def _warnings(video, record: Path) -> dict[str, str | None]:
     """What the tracking of one video warns of (None: nothing), which `run` says once for all
-    the videos: the scale (the record's ``ball.warning``), the compression, the tone curve, and
-    the flights' fall against the scale (``record``: its ``<name>.track.json``; e.g. a file
+    the videos: the scale (the record's ``ball.warning``), the compression, the tone curve, lost
+    or repeated frames, and the flights' fall against the scale (``record``: its ``<name>.track.json``; e.g. a file
     whose frame rate is wrong)."""
-    from .tracking import compression_warning, radius_warning, tone_curve_warning
+    from .tracking import compression_warning, radius_warning, timing_warning, tone_curve_warning
 
     check = json.loads(record.read_text(encoding="utf-8"))["gravity"]
     fell = None if check is None or check["agrees"] else \
         check["summary"].replace("\n  warning: ", ": ")
     return {"scale": radius_warning(video.track), "compression": compression_warning(video.source),
-            "tone curve": tone_curve_warning(video), "fall": fell}
+            "tone curve": tone_curve_warning(video), "frames": timing_warning(video.track),
+            "fall": fell}
 
 
 def _track_videos(data: Path, experiment, stage: Path, log, video: dict,

@@ -34,7 +34,10 @@ The pipeline, one pure function per stage (paper §3 did this by hand in Tracker
    the median radius and its standard error (``Track.radius_fit``); the sides of the rim
    whose wall is not the background's (a lamp's shadow of the ball on the wall) left out,
    and said. The same fits give the ball's centre, and the coverage centroids are shifted by
-   their median difference (a constant bias of the centroid under side light).
+   their median difference (a constant bias of the centroid under side light). Frames lost
+   or repeated (a camera that drops frames, a file converted to another frame rate) are told
+   by the ball's steps (``Track.timing``, ``_timing.py``): each frame's place in the camera's
+   sequence, the repeated ones flagged, and said.
 3. :class:`Calibration` (metres per pixel, from a reference length or the ball diameter) and
    :class:`Surface` (the surface line, from two points or :func:`detect_surface`).
 4. :func:`to_plane_frame`: ``x`` along the surface in the direction of travel, ``y`` along the
@@ -76,6 +79,7 @@ from ._output import TrackedVideo as TrackedVideo
 from ._output import compression_warning as compression_warning
 from ._output import radius_warning as radius_warning
 from ._output import camera_message as camera_message
+from ._output import timing_warning as timing_warning
 from ._output import tone_curve_warning as tone_curve_warning
 from ._output import overlay_image as overlay_image
 from ._output import track_record as track_record
@@ -104,7 +108,7 @@ __all__ = ["CENTROID", "CHANNELS", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES",
            "compression_warning",
            "detect_surface",
            "overlay_image", "plane_axes", "radius_warning", "read_frames", "read_image",
-           "tone_curve_label", "tone_curve_warning",
+           "timing_warning", "tone_curve_label", "tone_curve_warning",
            "to_plane_frame",
            "track_ball", "track_record", "track_video", "warm_kernels", "write_track_files"]
 

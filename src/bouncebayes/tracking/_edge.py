@@ -94,6 +94,7 @@ MORE_FRAMES_MAX_BLUR = 0.2
 MAX_FRAMES_BLURRED = 25
 FIRST_FRAMES_BLURRED = 13
 MAX_PIXELS = 1200  # pixels fitted per frame (a large ball's are thinned)
+START_REACH = 7.0  # px beyond 1.25 starting radii that the starting grid reads (_start)
 XTOL = FTOL = 1e-4  # the fits' tolerances (as SciPy's least_squares') ...
 MAX_NFEV = 12       # ... and evaluations per fit (to convergence: no systematic change, 2-5x
 #                     the time; docs/tracking.md section 3)
@@ -713,17 +714,18 @@ def _solve(px: _Pixels, q: np.ndarray, free: np.ndarray, lo: np.ndarray, hi: np.
 
 def fit_edge(img: np.ndarray, bg: np.ndarray, centre, velocity, r0: float, *,
              held: tuple[float, float, float, float] | None = None,
-             light: tuple[float, float] | None = None, kappa: np.ndarray | None = None
-             ) -> EdgeFit | None:
+             light: tuple[float, float] | None = None, kappa: np.ndarray | None = None,
+             reach: float = START_REACH) -> EdgeFit | None:
     """Fit the edge model to one frame around ``centre`` (px; ``bg`` the background model
     scaled to the frame, ``velocity`` px per frame) from a first radius ``r0``; with ``held =
     (sigma, exposure, az, el)`` the blur, exposure and light's direction are held, with
     ``light = (az, el)`` the light's direction; ``kappa``: the background's variance in units
     of the frame's noise variance, a map (:func:`._edge_kernel.varpro`; None: the background
-    taken as exact). None if the pixels leave the frame or the fit fails."""
+    taken as exact); ``reach``: how far (px) beyond ``1.25 r0`` the starting grid reads where
+    nothing is held (:func:`_start`). None if the pixels leave the frame or the fit fails."""
     speed = math.hypot(*velocity)
     q = np.array([centre[0], centre[1], r0, *held]) if held else \
-        _start(img, bg, centre, velocity, r0, kappa)
+        _start(img, bg, centre, velocity, r0, kappa, reach)
     if q is None:
         return None
     fixed = np.zeros(7, bool) if held is None else np.array([0, 0, 0, 1, 1, 1, 1], bool)
@@ -834,12 +836,12 @@ def _light_start(img, bg, q, velocity, lo, hi, kappa: np.ndarray | None
     return q_lit
 
 
-def _start(img, bg, centre, velocity, r0: float, kappa: np.ndarray | None
-           ) -> np.ndarray | None:
+def _start(img, bg, centre, velocity, r0: float, kappa: np.ndarray | None,
+           reach: float = START_REACH) -> np.ndarray | None:
     """The best starting ``(cx, cy, r, sigma, exposure, az, el)`` on a grid of radius and
     blur (centre held, no shadow: the edge model has local minima where a blur trades
     against the shading near the rim)."""
-    px = _pixels(img, bg, centre, velocity, 1.25 * r0, 1.25 * r0, 7.0,
+    px = _pixels(img, bg, centre, velocity, 1.25 * r0, 1.25 * r0, reach,
                  r0 >= OCCLUSION_MIN_RADIUS, kappa)
     if px is None or px.u.size < 40:
         return None
@@ -1228,10 +1230,99 @@ def _held_fits(args, first: dict[int, EdgeFit | None], r1: float,
     return second
 
 
+# A misfit: the free fits' median RMS residual above MISFIT times the frames' noise (the
+# background difference's robust SD). On 22 rendered clips of balls without a cast shadow
+# (benchmarks/tracking_accuracy.py's scenes, radius 5-15 px, blur 0-1.5 px, MJPEG, MPEG-4) it
+# was 0.9-1.8 (above 1 on a bright ball: its own shot noise); where a dark ball's shadow cast
+# on the wall beside it by a lamp merged with it, 2.2-3.4. There the coverage took ball and
+# shadow for one blob (a 12 px ball of albedo 0.2 on a wall of 200 grey levels, a shadow of
+# 0.5-0.9 of the wall's light offset by 0.78 radii: coverage radius +25 %, centroid 4 px
+# towards the shadow) and the edge model fitted from it settled on one larger disk (radius +31
+# to +39 %, centres 4.3 px off, RMS residual 8-10 grey levels for noise 3). From starts
+# RESTART_AWAY coverage radii from the centroid in RESTART_DIRECTIONS directions, with
+# RESTART_RADIUS of its radius, the one towards the ball found it (RMS 2.9, centres 0.05 px)
+# and the shadow's own disk a worse fit (RMS 4.3-5.3). So where the free fits misfit, each is
+# fitted again from those starts and the best kept where its RMS residual is below
+# RESTART_BETTER of the first's; and where the free fits' centres are then RESTART_SHIFT radii
+# or more from the centroids alike, every frame is fitted from its centroid so moved.
+MISFIT = 2.0
+RESTART_AWAY = 0.3
+RESTART_DIRECTIONS = 8
+RESTART_RADIUS = 0.8
+RESTART_BETTER = 0.8
+# ... and there the starting grid reads RESTART_REACH px beyond its largest radius, not
+# START_REACH: at 8 px the shadow lies within START_REACH of the ball's rim on its side, and
+# from the true centre the grid's best radius took it in (10.0 px for 8; fitted 10.5, RMS 6.3;
+# with RESTART_REACH 8.0 px, RMS 2.9)
+RESTART_REACH = 4.0
+RESTART_SHIFT = 0.1  # (a ball's centroids are 0.3-0.5 px off at 12 px, blur 0.7, exposure 0.3)
+
+
+def _restarted(img, bg, centre, velocity, r0: float, fit: EdgeFit | None,
+               kappa: np.ndarray | None) -> EdgeFit | None:
+    """The best of the free fits from ``RESTART_DIRECTIONS`` starts ``RESTART_AWAY r0``
+    around ``centre`` (radius ``RESTART_RADIUS r0``) where its RMS residual is below
+    ``RESTART_BETTER`` of ``fit``'s; else ``fit``."""
+    best = fit
+    for angle in np.arange(RESTART_DIRECTIONS) * (2.0 * math.pi / RESTART_DIRECTIONS):
+        start = (centre[0] + RESTART_AWAY * r0 * math.cos(angle),
+                 centre[1] + RESTART_AWAY * r0 * math.sin(angle))
+        other = fit_edge(img, bg, start, velocity, RESTART_RADIUS * r0, kappa=kappa,
+                         reach=RESTART_REACH)
+        if other is not None and (best is None or other.rms < best.rms):
+            best = other
+    if fit is None or (best is not None and best.rms < RESTART_BETTER * fit.rms):
+        return best
+    return fit
+
+
+def _centroid_shift(args, first: dict[int, EdgeFit | None]) -> np.ndarray | None:
+    """The free fits' median offset (px) from their frames' centres in ``args``, where it is
+    ``RESTART_SHIFT`` of their median radius or more (None where it is less)."""
+    ok = [(i, f) for i, f in first.items() if f is not None]
+    if not ok:
+        return None
+    shift = np.median([(f.cx - args[i][2][0], f.cy - args[i][2][1]) for i, f in ok], axis=0)
+    if math.hypot(*shift) < RESTART_SHIFT * float(np.median([f.r for _, f in ok])):
+        return None
+    return shift
+
+
+def _moved(args, shift: np.ndarray | None) -> list:
+    """``args`` with each frame's centre moved by ``shift`` (px; as given where None)."""
+    if shift is None:
+        return list(args)
+    return [(img, bg, np.asarray(c, dtype=float) + shift, v) for img, bg, c, v in args]
+
+
+def _shared(args: list[tuple[np.ndarray, np.ndarray, Any, Any]],
+            first: dict[int, EdgeFit | None], r0: float, kappa: np.ndarray | None,
+            reach: float) -> tuple[tuple[float, float, float, float], float]:
+    """The blur, exposure and light ``(sigma, exposure, az, el)`` the frames ``args`` share
+    (one lens, one exposure, one lamp), and the radius to start their held fits from, of
+    their free fits ``first``: a shadow if most of them found one, the light then the one of
+    their directions that fits their frames best together and those frames fitted again
+    under it (from ``r0``, the starting grid reading ``reach`` px out); the medians of the
+    frames that agree."""
+    ok = [f for f in first.values() if f is not None]
+    shadow = [f for f in ok if f.el < _NO_SHADOW]
+    agree = shadow if 2 * len(shadow) > len(ok) else [f for f in ok if f.el >= _NO_SHADOW]
+    light = _shared_light([args[i] for i, f in first.items() if f in shadow], shadow, kappa) \
+        if agree is shadow else (0.0, _NO_SHADOW)
+    if agree is shadow:  # the shadow frames again with that light: their blur and exposure
+        again = [fit_edge(*args[i], r0, light=light, kappa=kappa, reach=reach)
+                 for i, f in first.items() if f in shadow]
+        agree = [f for f in again if f is not None] or shadow
+    return ((float(np.median([f.sigma for f in agree])),
+             float(np.median([f.exposure for f in agree])), *light),
+            float(np.median([f.r for f in agree])))
+
+
 def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
                centres: np.ndarray, velocities: np.ndarray, gains: Sequence[float], r0: float,
                more: Callable[[], _FrameInputs] | None = None,
-               kappa: np.ndarray | None = None) -> RadiusFit | None:
+               kappa: np.ndarray | None = None, noise: float | None = None
+               ) -> RadiusFit | None:
     """The ball's radius from the frames given (each with the ball wholly in view near
     ``centres``, px; ``backgrounds``: the background model scaled to each frame;
     ``velocities``: px per frame; ``gains``: each frame's brightness relative to the
@@ -1245,38 +1336,37 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     the radius and centres are those of the frames fitted together (:func:`joint_radius`; the
     standard error stays the median's; the blur and light then the joint fit's).
     ``kappa``: the backgrounds' variance in units of the frames' noise variance, one map for
-    the video (:func:`fit_edge`). None if fewer than 3 frames could be fitted."""
+    the video (:func:`fit_edge`). ``noise``: the frames' noise (grey levels; None: not known),
+    against which the free fits' residual tells a misfit (``MISFIT``: the frames are then
+    fitted again from other starts, :func:`_restarted`). None if fewer than 3 frames could be
+    fitted."""
     args, gain = list(zip(frames, backgrounds, centres, velocities, strict=True)), list(gains)
     # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
     # frames, spread: they only set the shared blur, exposure, light and the starting radius
     first = {int(i): fit_edge(*args[int(i)], r0, kappa=kappa)
              for i in spread(len(args), FIRST_FRAMES)}
     ok = [f for f in first.values() if f is not None]
+    reach = START_REACH
+    if noise is not None and len(ok) >= 3 and np.median([f.rms for f in ok]) > MISFIT * noise:
+        # the fits misfit (a shadow beside the ball merged with it): other starts, and the
+        # free fits to come read less of the wall
+        first = {i: _restarted(*args[i], r0, f, kappa) for i, f in first.items()}
+        ok, reach = [f for f in first.values() if f is not None], RESTART_REACH
     if len(ok) < 3:
         return None
+    shift = _centroid_shift(args, first)
+    if shift is not None:  # the centroids are off alike: every frame from its centroid moved
+        args, r0 = _moved(args, shift), float(np.median([f.r for f in ok]))
     blur = float(np.median([f.sigma for f in ok]) / np.median([f.r for f in ok]))
     if more is not None and BLURRED <= blur <= MORE_FRAMES_MAX_BLUR:
         # blurred for its size: the blur the fits hold sets the radius; more frames for it
         *inputs, extra_gains = more()
-        extra, n = list(zip(*inputs, strict=True)), len(args)
+        extra, n = _moved(zip(*inputs, strict=True), shift), len(args)
         args, gain = args + extra, gain + list(extra_gains)
         for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
-            first[int(i)] = fit_edge(*args[int(i)], r0, kappa=kappa)
-        ok = [f for f in first.values() if f is not None]
-    # one lens, one exposure, one lamp: a shadow if most of the frames found one, the light
-    # then the one of their directions that fits their frames best together, and those frames
-    # fitted again under it; the blur, exposure and starting radius from the frames that agree
-    shadow = [f for f in ok if f.el < _NO_SHADOW]
-    agree = shadow if 2 * len(shadow) > len(ok) else [f for f in ok if f.el >= _NO_SHADOW]
-    light = _shared_light([args[i] for i, f in first.items() if f in shadow], shadow, kappa) \
-        if agree is shadow else (0.0, _NO_SHADOW)
-    if agree is shadow:  # the shadow frames again with that light: their blur and exposure
-        again = [fit_edge(*args[i], r0, light=light, kappa=kappa)
-                 for i, f in first.items() if f in shadow]
-        agree = [f for f in again if f is not None] or shadow
-    held = (float(np.median([f.sigma for f in agree])),
-            float(np.median([f.exposure for f in agree])), *light)
-    second = _held_fits(args, first, float(np.median([f.r for f in agree])), held, kappa)
+            first[int(i)] = fit_edge(*args[int(i)], r0, kappa=kappa, reach=reach)
+    held, r1 = _shared(args, first, r0, kappa, reach)
+    second = _held_fits(args, first, r1, held, kappa)
     fits = [f for f in second if f is not None]
     if len(fits) < 3:
         return None

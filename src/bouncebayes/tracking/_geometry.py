@@ -374,8 +374,10 @@ def to_plane_frame(track: Track, calibration: Calibration, surface: Surface,
                    fps: float, readout: float = 0.0) -> PlaneTrajectory:
     """Found centres in metres, ``x`` along the surface from the first found position, ``y``
     the height of the ball centre above the surface line; each at the time frame ``k``'s
-    rows through its centre were read: ``k / fps``, plus ``readout v / height`` for a rolling
-    shutter that reads the ``height`` rows top to bottom in ``readout`` seconds (``v`` the
+    rows through its centre were read: ``k / fps`` (``k`` the frame's place in the camera's
+    sequence where frames were lost or repeated: ``Track.timing``), plus ``readout v /
+    height`` for a rolling shutter that reads the ``height`` rows top to bottom in
+    ``readout`` seconds (``v`` the
     centre's row, px from the top; 0: a global shutter). To first order the centre of a ball
     so read, sheared by its motion, is where the ball was when its centre's row was read."""
     fps = check_scalar("fps", fps, unit="frames/s", low=0.0, low_open=True)
@@ -385,5 +387,6 @@ def to_plane_frame(track: Track, calibration: Calibration, surface: Surface,
     rel = track.centre[k] - np.asarray(surface.point)
     x, y = rel @ e, rel @ n
     s = calibration.metres_per_px
-    t = k / fps + readout * track.centre[k, 1] / track.background.shape[0]
+    place = track.timing.place[k] if track.timing is not None else k
+    t = place / fps + readout * track.centre[k, 1] / track.background.shape[0]
     return PlaneTrajectory(t=t, x=(x - x[0]) * s, y=y * s)

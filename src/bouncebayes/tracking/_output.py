@@ -442,10 +442,46 @@ def camera_message(track: Track) -> str | None:
             "before tracking (per-frame camera_du_px / camera_dv_px in the record)")
 
 
+def timing_warning(track: Track) -> str | None:
+    """In words, where frames were lost or repeated and what was done (:mod:`._timing`);
+    None where none were (or the track has no timing)."""
+    from ._timing import timing_message
+
+    return timing_message(track.timing) if track.timing is not None else None
+
+
+def _timing_record(track: Track) -> dict[str, object]:
+    """The record's frames lost and repeated (frame numbers; how many lost before each) and
+    its warning (:func:`timing_warning`)."""
+    timing = track.timing
+    lost = np.flatnonzero(timing.lost) if timing is not None else np.zeros(0, int)
+    return {"lost_before_frames": lost.tolist(),
+            "lost_counts": timing.lost[lost].tolist() if timing is not None else [],
+            "repeated_frames": np.flatnonzero(timing.repeated).tolist()
+            if timing is not None else [],
+            "warning": timing_warning(track)}
+
+
 def _camera_columns(track: Track, n: int) -> dict[str, list]:
     """The record's per-frame camera shift (px), zeros where it did not move."""
     shift = track.camera_shift if track.camera_shift.size else np.zeros((n, 2))
     return {"camera_du_px": _floats(shift[:, 0], 4), "camera_dv_px": _floats(shift[:, 1], 4)}
+
+
+def _per_frame(tr: Track, n: int) -> dict[str, object]:
+    """The record's per-frame columns of the ``n`` frames: centre, radius, method, quality,
+    whether refined, the frame's place in the camera's sequence, the camera's shift."""
+    from ._measure import METHOD_NAMES
+
+    return {"u_px": _floats(tr.centre[:, 0]), "v_px": _floats(tr.centre[:, 1]),
+            "radius_px": _floats(tr.radius), "method": tr.method.tolist(),
+            "methods": {str(k): v for k, v in METHOD_NAMES.items()},
+            "residual_grey": _floats(tr.residual, 3),
+            "visible": _floats(tr.visible, 4), "flag": tr.flag.astype(int).tolist(),
+            "refined": tr.refined.astype(int).tolist() if tr.refined.size else [0] * n,
+            "place": (_floats(tr.timing.place, 1) if tr.timing is not None
+                      else [float(k) for k in range(n)]),
+            **_camera_columns(tr, n)}
 
 
 def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) -> dict:
@@ -453,8 +489,6 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
     uncertainty, surface with its angle's uncertainty, per-frame pixels and quality, a quality
     summary, the settings and the version. ``calibration.relative_sd`` and
     ``surface.angle_sd_deg`` are read by :func:`bouncebayes.data.read_track_sidecar`."""
-    from ._measure import METHOD_NAMES
-
     src, tr, cal, srf = video.source, video.track, video.calibration, video.surface
     n, h, w = src.frames.shape
     found = tr.found
@@ -472,6 +506,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                     "refined_offset_px": [round(v, 4) for v in tr.refined_offset],
                     "camera_shift_max_px": round(camera_shift_max(tr), 4)},
         "settings": settings,
+        "timing": _timing_record(tr),
         "ball": _ball_record(tr),
         "ball_radius_px": _optional(tr.ball_radius, 4),
         "calibration": {"metres_per_pixel": cal.metres_per_px,
@@ -492,14 +527,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
         "found": int(found.sum()),
         "not_found_frames": np.flatnonzero(~found).tolist(),
         "edge_fit_frames": np.flatnonzero(tr.method == EDGE_FIT).tolist(),
-        "per_frame": {"u_px": _floats(tr.centre[:, 0]), "v_px": _floats(tr.centre[:, 1]),
-                      "radius_px": _floats(tr.radius), "method": tr.method.tolist(),
-                      "methods": {str(k): v for k, v in METHOD_NAMES.items()},
-                      "residual_grey": _floats(tr.residual, 3),
-                      "visible": _floats(tr.visible, 4), "flag": tr.flag.astype(int).tolist(),
-                      "refined": (tr.refined.astype(int).tolist() if tr.refined.size
-                                  else [0] * n),
-                      **_camera_columns(tr, n)},
+        "per_frame": _per_frame(tr, n),
         "outputs": {k: str(v) for k, v in outputs.items()},
     }
 

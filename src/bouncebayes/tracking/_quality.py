@@ -123,11 +123,13 @@ def _misfit(frames: np.ndarray, s: _Searcher, idx: np.ndarray, centre: np.ndarra
 
 
 def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndarray,
-                    method: np.ndarray, flag: np.ndarray, radius: np.ndarray
+                    method: np.ndarray, flag: np.ndarray, radius: np.ndarray,
+                    noise: float | None = None
                     ) -> tuple[RadiusFit | None, tuple[float, float]]:
     """The edge model on up to ``MAX_FRAMES`` trusted frames spread over the video (ball wholly
     in view with a margin, both neighbours found for its velocity; ``clean(centres)`` the
-    background model with the ball left out around ``centres``, ``gains`` the frames' gains),
+    background model with the ball left out around ``centres``, ``gains`` the frames' gains;
+    ``noise`` the frames' noise, grey levels: :func:`._edge.fit_radius`),
     with the centroids' per-frame SD (``centre_sd``); and the median offset of the edge fits'
     centres from the coverage centroids (applied to every centroid)."""
     whole = method == CENTROID
@@ -155,7 +157,7 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
 
     bg, kappa = clean(centre[pick])  # kappa: one map, updated in place as more() asks
     fit = fit_radius(*inputs(pick, bg), r0, more=lambda: inputs(extra, clean(centre[extra])[0]),
-                     kappa=kappa)
+                     kappa=kappa, noise=noise)
     if fit is None:
         return None, (0.0, 0.0)
     pick = np.concatenate([pick, extra])

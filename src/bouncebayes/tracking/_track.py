@@ -14,6 +14,9 @@ from ._edge import SMALL_BALL_FIT, RadiusFit, spread
 from ._camera import stabilise
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import edge_offset, fit_ball_radius, frame_quality
+from ._timing import FrameTiming, frame_timing
+
+TIMING_SD_PX = 0.2  # the centres' SD taken for the frames' timing where the edge model has none
 from ._tone import check_tone_curve, decode, decode_table
 
 Polarity = Literal["auto", "bright", "dark"]
@@ -100,7 +103,9 @@ class Track:
     levels). ``camera_shift`` ``(n, 2)``: how far (px) the camera had moved in each frame
     against the background, the frames moved back by it before anything was measured
     (:mod:`._camera`; zeros where it did not move, and the centres are in the background's
-    pixels).
+    pixels). ``timing``: each frame's place in the camera's sequence where frames were lost
+    or repeated (:mod:`._timing`; the repeated frames are flagged; None: every frame at
+    ``k / fps``, as a track made before).
     """
 
     centre: np.ndarray
@@ -120,6 +125,7 @@ class Track:
     refined_offset: tuple[float, float] = (0.0, 0.0)
     tone_curve: str | float | None = None
     camera_shift: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    timing: FrameTiming | None = None
 
     @property
     def found(self) -> np.ndarray:
@@ -278,13 +284,7 @@ def track_ball(frames: np.ndarray, *, config: TrackerConfig = TrackerConfig(),
 def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) -> Track:
     """:func:`track_ball`; ``compiled``: the per-frame path of :mod:`._fast`, else the Python
     path of :mod:`._measure` (the reference it is tested against, and the benchmark's)."""
-    frames = _check_frames(frames)
-    if background is not None:
-        background = _check_background(background, frames.shape[1:])
-    if (table := decode_table(config.tone_curve)) is not None:  # light, not grey (._tone)
-        frames = table[frames]
-        if background is not None:
-            background = decode(background, config.tone_curve).astype(np.float32)
+    frames, background = _decoded(frames, background, config)
     # the frames moved back onto the background's pixels where the camera moved (._camera)
     frames, bg, camera = stabilise(frames, functools.partial(_background, background, config))
     noise, sign = _noise_and_polarity(frames, bg, config)
@@ -319,14 +319,33 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
                                             compiled=compiled)
     fitted = _fit_ball(frames, state, background is not None, centre, radius, method, flag,
-                       config)
+                       config, noise)
+    # lost and repeated frames, told by the ball's steps (the repeated ones flagged)
+    fit = fitted["radius_fit"]
+    timing = frame_timing(centre, (method != NOT_FOUND) & ~flag,
+                          fit.centre_sd if fit is not None else TIMING_SD_PX)
+    flag = flag | timing.repeated
     for a in (centre, radius, method, contrast, residual, visible, flag, fitted["refined"],
-              camera):
+              camera, *timing):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, tone_curve=config.tone_curve,
-                 camera_shift=camera, **fitted)
+                 camera_shift=camera, timing=timing, **fitted)
+
+
+def _decoded(frames, background, config: TrackerConfig
+             ) -> tuple[np.ndarray, np.ndarray | None]:
+    """The frames and the background given (or None), checked, and decoded to light by the
+    tone curve where one is given (:mod:`._tone`)."""
+    frames = _check_frames(frames)
+    if background is not None:
+        background = _check_background(background, frames.shape[1:])
+    if (table := decode_table(config.tone_curve)) is not None:  # light, not grey (._tone)
+        frames = table[frames]
+        if background is not None:
+            background = decode(background, config.tone_curve).astype(np.float32)
+    return frames, background
 
 
 def _background(given: np.ndarray | None, config: TrackerConfig, frames: np.ndarray
@@ -335,10 +354,11 @@ def _background(given: np.ndarray | None, config: TrackerConfig, frames: np.ndar
     return given if given is not None else background_model(frames, config.background_frames)
 
 
-def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config
-              ) -> dict[str, Any]:
+def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config,
+              noise: float) -> dict[str, Any]:
     """The fits after the search, on ``centre`` (moved in place): the edge model's radius
-    (:func:`._quality.fit_ball_radius`), its centres' offset to the centroids, and the
+    (:func:`._quality.fit_ball_radius`; ``noise`` the frames', grey levels), its centres'
+    offset to the centroids, and the
     per-frame centre fits (:func:`._refine.refine_centres`). They get the background with the
     ball left out around where they look (:func:`_ball_free_background`), or the one given
     (``given``) as it is. Returns :class:`Track`'s fields of them: ``radius_fit``,
@@ -351,7 +371,8 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config
     # a background given is taken as exact (its noise is not known)
     clean = (lambda centres: (state.bg64, np.zeros(state.bg64.shape))) if given else \
         _ball_free_background(frames, state.bg64, gains, centre, radius, config)
-    fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius) if \
+    fit, offset = fit_ball_radius(frames, clean, gains, centre, method, flag, radius,
+                                  noise) if \
         config.edge_model else (None, (0.0, 0.0))
     centre[method == CENTROID] += offset
     small = refine_centres(frames, clean, gains, centre, method, fit)
