@@ -461,3 +461,31 @@ def test_run_on_videos_names_the_one_whose_fall_disagrees_with_its_scale(tmp_pat
     scale = record["calibration"]["metres_per_pixel"] / scene.metres_per_px
     fall = record["gravity"]
     assert fall["fall_m_s2"] == pytest.approx(9.81 / 4 * scale, abs=3 * fall["fall_se_m_s2"])
+
+
+def test_run_on_videos_says_for_each_where_frames_were_lost(tmp_path):
+    """A video with every 10th frame lost (taken out by the test) beside one without: `run`
+    says for the first which frames, and nothing of frames for the second; the trajectory's
+    times step over the gaps (bouncebayes.tracking._timing)."""
+    from bouncebayes.pipeline import _track_videos
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from render_pbr import Shot, Throw, render
+    from video_helpers import write_video
+
+    shot = Shot(width=240, height=120, radius_px=12.0, n_frames=60, surface_v=100.0,
+                slope_deg=2.0, sigma_px=0.7, exposure=0.3, supersample=2,
+                throw=Throw(speed_in=2.4, angle_in=35.0, t_contact=0.04, x_contact=0.07))
+    frames = render(shot)
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    write_video(frames[[k for k in range(60) if k % 10 != 9]], videos / "gaps.avi", 1000.0)
+    write_video(frames, videos / "whole.avi", 1000.0)
+    experiment = load_experiment(Path(__file__).resolve().parents[1] / "examples" / "paper.toml")
+    lines: list[str] = []
+    folder = _track_videos(videos, experiment, tmp_path / "stage", lines.append,
+                           {"fps": 1000.0, "surface": None, "tone_curve": None}, False)
+    told = [line for line in lines if "frame(s) lost" in line]
+    assert len(told) == 1 and told[0].startswith("  warning: gaps.avi: frames: ")
+    t = np.loadtxt(folder / "gaps.csv", delimiter=",", skiprows=1, usecols=0)
+    assert np.isclose(t[9] - t[8], 2e-3) and np.isclose(t[8] - t[7], 1e-3)

@@ -85,18 +85,23 @@ def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], Non
                                    **fit_kwargs)
 
 
+EACH_VIDEO = ("frames", "lens")  # warnings `run` gives for each video, not once for all
+
+
 def _warnings(video, record: Path) -> dict[str, str | None]:
     """What the tracking of one video warns of (None: nothing), which `run` says once for all
     the videos: the scale (the record's ``ball.warning``), the compression, the tone curve, lost
-    or repeated frames, and the flights' fall against the scale (``record``: its ``<name>.track.json``; e.g. a file
+    or repeated frames, a lens that bends lines, and the flights' fall against the scale (``record``: its ``<name>.track.json``; e.g. a file
     whose frame rate is wrong)."""
-    from .tracking import compression_warning, radius_warning, timing_warning, tone_curve_warning
+    from .tracking import (compression_warning, lens_warning, radius_warning, timing_warning,
+                           tone_curve_warning)
 
     check = json.loads(record.read_text(encoding="utf-8"))["gravity"]
     fell = None if check is None or check["agrees"] else \
         check["summary"].replace("\n  warning: ", ": ")
     return {"scale": radius_warning(video.track), "compression": compression_warning(video.source),
             "tone curve": tone_curve_warning(video), "frames": timing_warning(video.track),
+            "lens": lens_warning(video),
             "fall": fell}
 
 
@@ -138,7 +143,9 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
             if note:  # each video's own
                 log(f"  note: {path.name}: {note}")
         for kind, warning in _warnings(tracked_video, files["record"]).items():
-            if warning is not None:
+            if warning is not None and kind in EACH_VIDEO:  # its own frames, its own lens
+                log(f"  warning: {path.name}: {warning}")
+            elif warning is not None:
                 said.setdefault(kind, []).append((path.name, warning))
         tracked += 1
     for kind in ("scale", "compression", "tone curve", "fall"):  # one line, not one a video:

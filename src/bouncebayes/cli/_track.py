@@ -35,7 +35,7 @@ DESCRIPTION = ("Find the ball in every frame of each video (sub-pixel; backgroun
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Options of ``track``."""
-    from ..tracking import CHANNELS, PAPER_BALL_DIAMETER, POLARITIES, TrackerConfig
+    from ..tracking import CHANNELS, LENS_MODES, PAPER_BALL_DIAMETER, POLARITIES, TrackerConfig
 
     p.add_argument("inputs", nargs="+", type=Path, metavar="INPUT",
                    help="video files (mp4, avi, mov, mkv, ...) or folders of image frames "
@@ -69,6 +69,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--background", type=Path, metavar="IMAGE",
                    help="an image of the scene without the ball; if not given, the per-pixel "
                         "median of frames (give one if the ball rests or moves slowly)")
+    p.add_argument("--lens", choices=LENS_MODES, default="auto",
+                   help="auto: where the surface edge bows clearly (a lens that bends straight "
+                        "lines), undistort the frames by the one-parameter model that "
+                        "straightens it and track them again; none: the frames as they are "
+                        "(frames undistorted with the camera's own calibration)")
     p.add_argument("--channel", choices=CHANNELS, default="auto",
                    help="what of colour frames to track: their luma (grey), one colour channel, "
                         "or auto: the luma unless the ball stands out of the background twice "
@@ -128,7 +133,7 @@ def _settings(args: argparse.Namespace) -> dict:
     check_scalar("--readout", args.readout, unit="s", low=0.0)
     return dict(fps=args.fps, config=config, ball_diameter=args.ball_diameter,
                 reference=reference, surface=surface, background=args.background,
-                readout=args.readout, channel=args.channel)
+                readout=args.readout, channel=args.channel, lens=args.lens)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -221,7 +226,7 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
     from the ball's radius and that is unreliable or uncertain, and where the frames are
     strongly compressed); ``gravity``: the flights' fall against the scale, in words."""
     from ..tracking import (EDGE_FIT, camera_message, compression_warning, radius_warning,
-                            timing_warning, tone_curve_warning)
+                            lens_warning, timing_warning, tone_curve_warning)
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, found = len(tr.found), int(tr.found.sum())
@@ -239,6 +244,7 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
             + (f"\n  warning: {coded}" if (coded := compression_warning(src)) else "")
             + (f"\n  warning: {tone}" if (tone := tone_curve_warning(result)) else "")
             + (f"\n  warning: {timing}" if (timing := timing_warning(tr)) else "")
+            + (f"\n  warning: {lens}" if (lens := lens_warning(result)) else "")
             + (f"\n  {camera}" if (camera := camera_message(tr)) else "")
             + (f"\n  colour: {src.channel_note}" if src.channel_note else "")
             + (f"\n  {gravity}" if gravity else ""))

@@ -79,6 +79,8 @@ from ._output import TrackedVideo as TrackedVideo
 from ._output import compression_warning as compression_warning
 from ._output import radius_warning as radius_warning
 from ._output import camera_message as camera_message
+from ._output import LENS_MODES as LENS_MODES
+from ._output import lens_warning as lens_warning
 from ._output import timing_warning as timing_warning
 from ._output import tone_curve_warning as tone_curve_warning
 from ._output import overlay_image as overlay_image
@@ -101,11 +103,12 @@ from ._video import VideoSource as VideoSource
 from ._video import read_frames as read_frames
 from ._video import read_image as read_image
 
-__all__ = ["CENTROID", "CHANNELS", "EDGE_FIT", "IMAGE_SUFFIXES", "METHOD_NAMES", "NOT_FOUND",
+__all__ = ["CENTROID", "CHANNELS", "EDGE_FIT", "IMAGE_SUFFIXES", "LENS_MODES", "METHOD_NAMES",
+           "NOT_FOUND",
            "PAPER_BALL_DIAMETER", "POLARITIES", "TONE_CURVES", "VIDEO_SUFFIXES", "Calibration",
            "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
            "TrackerConfig", "VideoSource", "background_model", "camera_message",
-           "compression_warning",
+           "compression_warning", "lens_warning",
            "detect_surface",
            "overlay_image", "plane_axes", "radius_warning", "read_frames", "read_image",
            "timing_warning", "tone_curve_label", "tone_curve_warning",

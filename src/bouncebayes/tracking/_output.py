@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,6 +16,7 @@ import cv2
 import numpy as np
 
 from .._errors import InputFileError
+from .._validate import check_choice
 from .._io import write_json, write_with
 from .._version import __version__
 from ._geometry import (
@@ -26,6 +28,7 @@ from ._geometry import (
     to_plane_frame,
 )
 from ._camera import rounded, shift_frames
+from ._lens import LensBend, bend_message, surface_bend, undistort, undistort_points
 from ._measure import CENTROID, EDGE_FIT
 from ._tone import tone_curve_label
 from ._track import Track, TrackerConfig, background_model, track_ball
@@ -181,6 +184,10 @@ class TrackedVideo:
     calibration: Calibration
     surface: Surface
     trajectory: PlaneTrajectory
+    lens: LensBend | None = None  # the surface edge's bow (:mod:`._lens`), None: not read
+    # the division model's lambda the frames were undistorted by (None: taken as they are;
+    # then ``source``'s frames, the track and the surface are the undistorted frames')
+    undistorted: float | None = None
 
 
 def track_video(path: str | os.PathLike, *, fps: float | None = None,
@@ -189,7 +196,8 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
                 | tuple[Sequence[float], Sequence[float], float, float | None] | None = None,
                 surface: Surface | None = None,
                 background: np.ndarray | str | os.PathLike | None = None,
-                readout: float = 0.0, channel: str = "auto") -> TrackedVideo:
+                readout: float = 0.0, channel: str = "auto", lens: str = "auto"
+                ) -> TrackedVideo:
     """Read, track, calibrate and rotate one video into the plane frame.
 
     Arguments:
@@ -206,6 +214,10 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
             global shutter); each centre is timed by its row (:func:`to_plane_frame`).
         channel: what of colour frames to track, as :func:`read_frames` (a background image
             file is read the same way).
+        lens: ``"auto"``: where the surface edge bows clearly (a lens that bends straight
+            lines, :mod:`._lens`), the frames (and the points and background given) are
+            undistorted by the division model that straightens it and tracked again;
+            ``"none"``: the frames as they are (the bow is said all the same).
 
     Raises:
         InputFileError: naming the file, for unreadable input, unknown fps, no ball found (or
@@ -216,9 +228,37 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         raise InputFileError(source.path, f"a rolling shutter's readout of {readout:g} s is "
                              f"not from 0 to the frame interval, {1.0 / source.fps:g} s at "
                              f"{source.fps:g} frames/s")
+    check_choice("lens", lens, LENS_MODES)
     if isinstance(background, str | os.PathLike):
         background = _background_file(background, source)
     config = config or TrackerConfig()
+    video = _tracked(source, config, ball_diameter, reference, surface, background, readout)
+    bent = video.lens
+    if lens == "none" or bent is None or not bent.significant:
+        return video
+    # a lens that bends lines: the frames, and what was given in their pixels, undistorted
+    lam, shape = bent.lam, source.frames.shape[1:]
+    frames = undistort(source.frames, lam)
+    frames.setflags(write=False)
+    source = dataclasses.replace(source, frames=frames)
+    if reference is not None:
+        p1, p2 = undistort_points([reference[0], reference[1]], lam, shape)
+        reference = (tuple(p1), tuple(p2), *reference[2:])
+    if surface is not None:
+        a, b = undistort_points([surface.point, np.add(surface.point, surface.direction)],
+                                lam, shape)
+        surface = Surface.from_points(a, b)
+    background = None if background is None else undistort(background, lam)
+    again = _tracked(source, config, ball_diameter, reference, surface, background, readout)
+    return dataclasses.replace(again, lens=bent, undistorted=lam)
+
+
+LENS_MODES = ("auto", "none")
+
+
+def _tracked(source: VideoSource, config: TrackerConfig, ball_diameter, reference,
+             surface: Surface | None, background, readout: float) -> TrackedVideo:
+    """:func:`track_video` on the frames of ``source`` as they are."""
     track = track_ball(source.frames, config=config, background=background)
     n_found = int(track.found.sum())
     if n_found < 3:
@@ -241,7 +281,8 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
                                  "--surface X1,Y1,X2,Y2")
     trajectory = to_plane_frame(track, calibration, surface, source.fps, readout)
     return TrackedVideo(source=source, track=track, calibration=calibration, surface=surface,
-                        trajectory=trajectory)
+                        trajectory=trajectory,
+                        lens=surface_bend(track.background, surface.point, surface.direction))
 
 
 def _background_file(path: str | os.PathLike, source: VideoSource) -> np.ndarray:
@@ -442,6 +483,25 @@ def camera_message(track: Track) -> str | None:
             "before tracking (per-frame camera_du_px / camera_dv_px in the record)")
 
 
+def lens_warning(video: TrackedVideo) -> str | None:
+    """In words, where the surface edge bows: a lens that bends straight lines
+    (:func:`._lens.bend_message`); None where it does not clearly, or was not read."""
+    return bend_message(video.lens, corrected=video.undistorted is not None)
+
+
+def _lens_record(video: TrackedVideo) -> dict[str, object] | None:
+    """The record's surface edge bow (px) with its SE, the division model's lambda with its
+    SE, and the warning; None where the edge was not read."""
+    lens = video.lens
+    if lens is None:
+        return None
+    return {"edge_sagitta_px": round(lens.sagitta_px, 3),
+            "edge_sagitta_se_px": round(lens.sagitta_se_px, 3),
+            "edge_length_px": round(lens.length_px, 1),
+            "division_lambda": round(lens.lam, 5), "division_lambda_se": round(lens.lam_se, 5),
+            "undistorted": video.undistorted is not None, "warning": lens_warning(video)}
+
+
 def timing_warning(track: Track) -> str | None:
     """In words, where frames were lost or repeated and what was done (:mod:`._timing`);
     None where none were (or the track has no timing)."""
@@ -507,6 +567,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                     "camera_shift_max_px": round(camera_shift_max(tr), 4)},
         "settings": settings,
         "timing": _timing_record(tr),
+        "lens": _lens_record(video),
         "ball": _ball_record(tr),
         "ball_radius_px": _optional(tr.ball_radius, 4),
         "calibration": {"metres_per_pixel": cal.metres_per_px,

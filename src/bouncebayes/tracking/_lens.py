@@ -1,0 +1,253 @@
+"""A lens that bends straight lines, told by the surface's edge (a plumb line).
+
+The tracker takes one scale over the frame: the camera square-on to the plane of the bounce,
+its lens without distortion. A wide lens (an action camera, a phone's wide camera) bows
+straight lines (barrel distortion), and the scale then falls towards the frame's edges: a
+rendered clip (tests/render_pbr.py, 480 x 270 px, the ball bouncing in the lower left, the
+frames bent by ``r_d = r_u (1 - 0.25 r_u^2)``, ``r`` in units of the frame's width from its
+centre: the surface edge bowed by 6 px) gave the incidence angle 1.75 degrees off, the
+speeds 1.4 SD off, and the flights' fall scattering beyond its errors, with no word of why.
+
+The surface's edge is straight on the plane and spans the frame: its edge pixels in the
+background model (:func:`_edge_pixels`), fitted by a parabola across the line (``bend``), show
+the bow. Where its
+sagitta is ``SAGITTA_PX`` or more, ``SIGNIFICANT`` standard errors, the bow the model below
+explains ``EXPLAINED`` of the pixels' scatter and the line is ``OFF_CENTRE`` from the centre,
+the lens is said to bend lines, with the one-parameter division model that makes the edge straight (Fitzgibbon 2001:
+``x_u = c + (x_d - c) / (1 + lam r_d^2)``, ``c`` the frame's centre, ``r_d`` the distance from
+it in units of the half-diagonal) and what it means for the scale at the corners; and
+:func:`.track_video` (``lens="auto"``) undistorts the frames by that model (:func:`undistort`,
+the points given with them too: :func:`undistort_points`) and tracks them again. One edge fixes
+one parameter about an assumed centre (the principal point taken as the frame's centre, no
+higher orders): the same clip, its frames undistorted so, gave the incidence angle 40.12
+degrees for 40 (z 1.6; 38.25 as bent) and the rebound angle z 1.3; with ``k1 = -0.08``, the
+rebound angle z 0.6 (-4.8 as bent). A camera's own calibration (OpenCV's
+``calibrateCamera`` and ``undistort``) does better, and ``lens="none"`` takes frames so
+undistorted as they are. Written here because no library fits one plumb line in a tracked
+video's background.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+SAGITTA_PX = 0.5    # the edge's bow (px) from which the lens is said to bend lines ...
+SIGNIFICANT = 5.0   # ... where it is this many standard errors too ...
+# ... and the division model straightening it explains EXPLAINED of the edge pixels' variance
+# across their line or more: a bow the lens makes is smooth and spans the edge; the texture of
+# a wall over a faint surface step (a dark 15 px ball's scene, benchmarks/tracking_accuracy.py:
+# Canny's edge in pieces with hooks, 152 pixels over 240 px) made a bow of 1.55 +- 0.31 px
+# that explained 0.20 of it; a lens bending the rendered frames by 10 % at the corners, 0.90
+EXPLAINED = 0.35
+# ... and the line lies OFF_CENTRE half-diagonals or more from the frame's centre at its
+# nearest: nearer, a lens bows a line too little to tell from an edge that wobbles (the
+# synthetic 224 x 64 px scenes of tests/video_helpers.py, the surface 0.2 half-diagonals from
+# the centre beside a plane's wavy stripes: a bow of 1.8-2.4 px, lambda -0.09, explained
+# 0.6-0.7; the rendered lens clips' surface: 0.36)
+OFF_CENTRE = 0.25
+SEARCH_PX = 8.0   # the edge's pixels are looked for within this (px) of the line given ...
+INLIER_PX = 1.0   # ... and are those within this of the parabola most of them lie on
+SAMPLES = 400     # ... of this many tried (_edge_pixels)
+CORRELATION_PX = 4.0  # neighbouring pixels of Canny's one-pixel-wide edge are not independent
+
+
+class LensBend(NamedTuple):
+    """The surface edge's bow: ``sagitta_px`` (the parabola's depth over the edge's length,
+    signed: positive where its middle lies away from the frame's centre against its ends, as
+    a barrel lens bows a line: the ends, farther out, are drawn in more)
+    and its standard error, the edge's ``length_px``, and ``lam``: the division model's
+    parameter that makes the edge straight (negative for a barrel lens), with its SE."""
+
+    sagitta_px: float
+    sagitta_se_px: float
+    length_px: float
+    lam: float
+    lam_se: float
+    explained: float  # the fraction of the pixels' variance across a line that lam explains
+    off_centre: float = 1.0  # the line's least distance from the frame's centre, half-diagonals
+
+    @property
+    def significant(self) -> bool:
+        return abs(self.sagitta_px) >= SAGITTA_PX and self.explained >= EXPLAINED and \
+            abs(self.sagitta_px) >= SIGNIFICANT * self.sagitta_se_px and \
+            self.off_centre >= OFF_CENTRE
+
+
+def _edge_pixels(edges: np.ndarray, point, direction) -> tuple[np.ndarray, np.ndarray]:
+    """The edge pixels ``(u, v)`` (``edges`` nonzero: their strength) that follow the line
+    through ``point`` along ``direction``: of those within ``SEARCH_PX`` of it, the ones
+    within ``INLIER_PX`` of the parabola across it that the strongest of them lie on (RANSAC:
+    ``SAMPLES`` parabolas through a pixel of each third of the edge, seeded, their pixels'
+    strength summed; the best refitted to its pixels once). Counted, not weighed, the pixels
+    of a plane's stripes parallel to the surface and wavy (tests/video_helpers.py: 1.5 px
+    over 250 px, 8 grey levels against the surface's 70) outnumbered the surface's and read
+    as a bow of 2 px. Refitting a parabola to the
+    pixels within 2 px of the last one instead went over to an edge 3.4 px beside the
+    surface's as the parabola turned (the lit strip along the surface of tests/video_helpers.py's
+    synthetic scenes: a bow of 1.9-4.9 px on straight edges), and a walk along the edge from
+    its middle wandered into a textured wall's edges (1.3 px on a straight one)."""
+    vs, us = np.nonzero(edges)
+    strength = edges[vs, us].astype(np.float64)
+    e = np.asarray(direction, dtype=float) / math.hypot(*direction)
+    along = (us - point[0]) * e[0] + (vs - point[1]) * e[1]
+    across = (us - point[0]) * e[1] - (vs - point[1]) * e[0]
+    band = np.abs(across) <= SEARCH_PX
+    a, d, us, vs, strength = along[band], across[band], us[band], vs[band], strength[band]
+    if a.size < 20:
+        return np.zeros(0), np.zeros(0)
+    lo, hi = float(a.min()), float(a.max())
+    thirds = [np.flatnonzero((a >= lo + k * (hi - lo) / 3) & (a <= lo + (k + 1) * (hi - lo) / 3))
+              for k in range(3)]
+    if any(t.size < 3 for t in thirds):
+        return np.zeros(0), np.zeros(0)
+    rng = np.random.default_rng(0)  # seeded: the same pixels every time
+    picks = np.column_stack([rng.choice(t, SAMPLES) for t in thirds])
+    x = (a - 0.5 * (lo + hi)) / max(0.5 * (hi - lo), 1.0)
+    xs, ds = x[picks], d[picks]
+    vander = np.stack([np.ones_like(xs), xs, xs * xs], axis=-1)
+    ok = np.abs(np.linalg.det(vander)) > 1e-9
+    coef = np.linalg.solve(vander[ok], ds[ok][..., None])[..., 0]
+    support = (np.abs(d[None, :] - coef @ np.vstack([np.ones_like(x), x, x * x])) <= INLIER_PX)
+    inliers = support[int(np.argmax(support @ strength))]
+    refit = np.polyfit(x[inliers], d[inliers], 2)
+    inliers = np.abs(d - np.polyval(refit, x)) <= INLIER_PX
+    return us[inliers].astype(float), vs[inliers].astype(float)
+
+
+def _off_line(u: np.ndarray, v: np.ndarray, lam: float, centre, scale: float) -> np.ndarray:
+    """The signed distances (px) of the points undistorted by ``lam`` from their straight line
+    (the principal axis through their mean)."""
+    du, dv = u - centre[0], v - centre[1]
+    g = 1.0 / (1.0 + lam * (du * du + dv * dv) / (scale * scale))
+    x, y = du * g, dv * g
+    x, y = x - x.mean(), y - y.mean()
+    normal = np.linalg.eigh(np.cov(np.vstack([x, y])))[1][:, 0]
+    return x * normal[0] + y * normal[1]
+
+
+def _straightness(u: np.ndarray, v: np.ndarray, lam: float, centre, scale: float) -> float:
+    """The RMS distance (px) of the points undistorted by ``lam`` from their straight line."""
+    return float(np.sqrt(np.mean(_off_line(u, v, lam, centre, scale) ** 2)))
+
+
+def bend(edges: np.ndarray, point, direction) -> LensBend | None:
+    """The bow of the surface edge through ``point`` along ``direction`` (px) in the edge
+    image ``edges`` (nonzero on Canny's edge pixels of the background model: their gradient's
+    magnitude), or None where fewer than 50 edge pixels follow it."""
+    u, v = _edge_pixels(edges, point, direction)
+    if u.size < 50:
+        return None
+    h, w = edges.shape
+    centre, scale = ((w - 1) / 2.0, (h - 1) / 2.0), math.hypot(w, h) / 2.0
+    e = np.asarray(direction, dtype=float) / math.hypot(*direction)
+    along = (u - point[0]) * e[0] + (v - point[1]) * e[1]
+    across = (u - point[0]) * e[1] - (v - point[1]) * e[0]
+    mid = 0.5 * (along.min() + along.max())
+    half = 0.5 * (along.max() - along.min())
+    x = (along - mid) / half
+    design = np.column_stack([np.ones_like(x), x, x * x])
+    coef, *_ = np.linalg.lstsq(design, across, rcond=None)
+    res = across - design @ coef
+    scatter = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), 1 / math.sqrt(12))
+    cov = np.linalg.inv(design.T @ design) * scatter ** 2 * CORRELATION_PX
+    # the parabola's middle against its ends: -coef[2] across (x = 0 against x = +-1), signed
+    # away from the frame's centre
+    middle = np.array([point[0] + mid * e[0], point[1] + mid * e[1]])
+    towards = np.sign((centre[0] - middle[0]) * e[1] - (centre[1] - middle[1]) * e[0]) or 1.0
+    sagitta, sagitta_se = float(coef[2]) * towards, math.sqrt(float(cov[2, 2]))
+    # the division model's parameter that makes the edge straight (a 1-D search: the RMS
+    # distance from a line is smooth in it), with its SE from the cost's curvature
+    from scipy.optimize import minimize_scalar
+
+    cost = lambda lam: _straightness(u, v, lam, centre, scale) ** 2  # noqa: E731
+    lam = float(minimize_scalar(cost, bounds=(-0.6, 0.6), method="bounded",
+                                options={"xatol": 1e-5}).x)
+    step = 0.01
+    curv = (cost(lam + step) - 2 * cost(lam) + cost(lam - step)) / step ** 2
+    lam_se = math.sqrt(2 * scatter ** 2 * CORRELATION_PX / u.size / curv) if curv > 0 \
+        else math.inf
+    straight = cost(0.0)
+    explained = 1.0 - cost(lam) / straight if straight > 0 else 0.0
+    off = abs((centre[0] - point[0]) * e[1] - (centre[1] - point[1]) * e[0]) / scale
+    return LensBend(sagitta, sagitta_se, 2.0 * half, lam, lam_se, explained, off)
+
+
+def surface_bend(background: np.ndarray, point, direction) -> LensBend | None:
+    """:func:`bend` of the surface line through ``point`` along ``direction`` in the
+    background model's edges (Canny's, as the surface was found: ``_geometry.canny_edges``),
+    each weighed by its gradient's magnitude."""
+    import cv2
+
+    from ._geometry import canny_edges
+
+    img = np.clip(np.asarray(background, dtype=np.float32), 0, 255).astype(np.uint8)
+    edges, smooth = canny_edges(img)
+    grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    return bend(np.where(edges > 0, grad + 1e-6, 0.0), point, direction)
+
+
+def _source(points: np.ndarray, lam: float, shape: tuple[int, int]) -> np.ndarray:
+    """Where the undistorted ``points`` (px, ``(..., 2)``) lie in the frame as taken: ``r_d``
+    from ``r_u = r_d / (1 + lam r_d^2)``, the root that is ``r_u`` at ``lam = 0``."""
+    h, w = shape
+    centre, scale = np.array([(w - 1) / 2.0, (h - 1) / 2.0]), math.hypot(w, h) / 2.0
+    d = np.asarray(points, dtype=np.float64) - centre
+    ru = np.hypot(d[..., 0], d[..., 1]) / scale
+    disc = np.sqrt(np.maximum(1.0 - 4.0 * lam * ru * ru, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = np.where(abs(lam) * ru * ru > 1e-12, (1.0 - disc) / (2.0 * lam * ru * ru), 1.0)
+    return centre + d * g[..., None]
+
+
+def undistort_points(points, lam: float, shape: tuple[int, int]) -> np.ndarray:
+    """Points of the frame as taken (px, ``(..., 2)``) in the frame undistorted by the division
+    model ``lam`` (the frame ``shape`` ``(h, w)`` sets its centre and scale)."""
+    h, w = shape
+    centre, scale = np.array([(w - 1) / 2.0, (h - 1) / 2.0]), math.hypot(w, h) / 2.0
+    d = np.asarray(points, dtype=np.float64) - centre
+    r2 = (d[..., 0] ** 2 + d[..., 1] ** 2) / scale ** 2
+    return centre + d / (1.0 + lam * r2)[..., None]
+
+
+def undistort(images: np.ndarray, lam: float) -> np.ndarray:
+    """Frames (``(n, h, w)`` uint8) or one image (``(h, w)``, float) undistorted by the
+    division model ``lam``: each pixel sampled where it lies in the frame as taken (Keys'
+    cubic, OpenCV's ``remap``; the border's pixels repeated), uint8 frames rounded."""
+    import cv2
+
+    images = np.asarray(images)
+    h, w = images.shape[-2:]
+    vv, uu = np.mgrid[:h, :w].astype(np.float64)
+    src = _source(np.stack([uu, vv], axis=-1), lam, (h, w)).astype(np.float32)
+
+    def one(img: np.ndarray) -> np.ndarray:
+        return cv2.remap(img, src[..., 0], src[..., 1], cv2.INTER_CUBIC,
+                         borderMode=cv2.BORDER_REPLICATE)
+
+    if images.ndim == 2:
+        return one(images.astype(np.float32))
+    return np.stack([one(f) for f in images])
+
+
+def bend_message(lens: LensBend | None, corrected: bool = False) -> str | None:
+    """In words, where the surface edge bows (a lens that bends straight lines), and whether
+    the frames were undistorted for it (``corrected``); None where it does not clearly."""
+    if lens is None or not lens.significant:
+        return None
+    kind = "barrel: a wide lens" if lens.sagitta_px > 0 else "pincushion"
+    said = (f"lens: the surface edge bows by {abs(lens.sagitta_px):.1f} +- "
+            f"{lens.sagitta_se_px:.1f} px over its {lens.length_px:.0f} px ({kind}): the lens "
+            "bends straight lines, and one scale does not hold over the frame (lengths near "
+            f"its corners come out about {100 * lens.lam:+.0f} % off, division model lambda "
+            f"{lens.lam:+.3f} +- {lens.lam_se:.3f})")
+    if corrected:
+        return (said + "; the frames were undistorted by that model (about the frame's "
+                "centre) and tracked again. A calibration of the camera does better: undistort "
+                "the frames with it (OpenCV: calibrateCamera, undistort) and give --lens none")
+    return (said + "; positions, speeds and angles away from the frame's centre are off with "
+            "them. Undistort the frames with the camera's calibration first (OpenCV: "
+            "calibrateCamera, undistort), or give --lens auto, or film the bounce near the "
+            "frame's centre")
