@@ -864,3 +864,19 @@ def test_rebounds_faster_than_the_incidence_are_named_not_blamed_on_the_prior(sm
     assert not any("widen the prior" in w for w in result.warnings)
     clean = infer(exp, trials, config=GridConfig(draws=400, points=32))
     assert not any("faster than they arrived" in w for w in clean.warnings)
+
+
+def test_a_result_whose_chains_disagree_or_that_has_modes_gets_no_interval():
+    from bouncebayes.inference._summary import UNCONVERGED, ParameterSummary
+
+    # the `run` table of three rendered bounces printed "mu = 0.069 ± 0.065" where R-hat was
+    # 1.93 and the posterior had two modes, beside warnings saying both
+    base = dict(name="mu", unit="", prior="uniform", mean=0.08, sd=0.08, median=0.07,
+                ci90=(0.004, 0.133), r_hat=1.0, ess_bulk=900.0, ess_tail=900.0,
+                identifiable=True, bound=None, modes=(0.07,))
+    assert ParameterSummary(**base).paper_form() == "mu = 0.069 ± 0.065"
+    stuck = ParameterSummary(**{**base, "r_hat": UNCONVERGED + 0.83})
+    assert stuck.paper_form() == "mu ≈ 0.07 (no interval: the chains disagree, R-hat 1.93; " \
+                                 "run longer)"
+    two = ParameterSummary(**{**base, "modes": (0.0166, 0.09)})
+    assert "±" not in two.paper_form() and "2 modes, at 0.0166, 0.09" in two.paper_form()

@@ -19,6 +19,10 @@ from ._draws import RHAT_LIMIT as RHAT_LIMIT
 ZERO_IS_AN_ANSWER = NOISE_PARAMETERS + DISCREPANCY_PARAMETERS
 ROLLING_LIMIT = 0.95  # share of (draw, bounce) pairs rolling above which mu is not identified
 TAIL_PROBS = (0.05, 0.95)  # quantiles of the tail ESS (Vehtari et al. 2021)
+# R-hat above which a result gets no interval (paper_form): the chains have not mixed, and an
+# interval from them says more than they do (RHAT_LIMIT, 1.01, only warns: between the two the
+# interval stands, with the warning)
+UNCONVERGED = 1.1
 
 
 @dataclass(frozen=True)
@@ -43,10 +47,19 @@ class ParameterSummary:
 
     def paper_form(self) -> str:
         """``mu = 0.160 ± 0.021`` (centre and half-width of the 90 % interval), or a bound; no
-        ``±`` where the model misfits the data: the posterior median and why."""
+        ``±`` where the model misfits the data, where the chains disagree (R-hat above
+        ``UNCONVERGED``: the draws are not yet the posterior's) or where the posterior has
+        several modes (one interval does not describe it): the posterior median and why."""
         unit = f" {self.unit}" if self.unit else ""
         if self.misfit:
             return (f"{self.name} ≈ {self.median:.3g}{unit} (no interval: {self.misfit})")
+        if self.r_hat is not None and self.r_hat > UNCONVERGED:
+            return (f"{self.name} ≈ {self.median:.3g}{unit} (no interval: the chains disagree, "
+                    f"R-hat {self.r_hat:.2f}; run longer)")
+        if len(self.modes) > 1:
+            where = ", ".join(f"{m:.3g}" for m in self.modes)
+            return (f"{self.name} ≈ {self.median:.3g}{unit} (no interval: {len(self.modes)} "
+                    f"modes, at {where}{unit})")
         if self.bound is not None:
             op = ">" if self.bound["side"] == "lower" else "<"
             return (f"{self.name} {op} {_fmt(self.bound['value'], self.sd)}{unit} at "
