@@ -503,7 +503,8 @@ def _scale_note(trials) -> list[str]:
 def _tracking_section(folder: str | Path) -> list[str]:
     """Where the run tracked videos: one row per video from its tracking record (frames, the
     ball's radius, the scale with its stated SD, what the flights' fall says, the record's
-    warnings and notes in words: the camera's motion, the colour channel) and the first
+    warnings and notes in words: lost or repeated frames, a lens that bends lines, the
+    camera's motion, the colour channel) and the first
     video's overlay image."""
     records = sorted((Path(folder) / "trajectories").glob("*.track.json"))
     if not records:

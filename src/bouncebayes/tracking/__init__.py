@@ -104,8 +104,8 @@ from ._video import read_frames as read_frames
 from ._video import read_image as read_image
 
 __all__ = ["CENTROID", "CHANNELS", "EDGE_FIT", "IMAGE_SUFFIXES", "LENS_MODES", "METHOD_NAMES",
-           "NOT_FOUND",
-           "PAPER_BALL_DIAMETER", "POLARITIES", "TONE_CURVES", "VIDEO_SUFFIXES", "Calibration",
+           "NOT_FOUND", "PAPER_BALL_DIAMETER", "POLARITIES", "TONE_CURVES", "VIDEO_SUFFIXES",
+           "Calibration",
            "PlaneTrajectory", "Polarity", "RadiusFit", "Surface", "Track", "TrackedVideo",
            "TrackerConfig", "VideoSource", "background_model", "camera_message",
            "compression_warning", "lens_warning",

@@ -1253,7 +1253,7 @@ RESTART_BETTER = 0.8
 # ... and there the starting grid reads RESTART_REACH px beyond its largest radius, not
 # START_REACH: at 8 px the shadow lies within START_REACH of the ball's rim on its side, and
 # from the true centre the grid's best radius took it in (10.0 px for 8; fitted 10.5, RMS 6.3;
-# with RESTART_REACH 8.0 px, RMS 2.9)
+# reading RESTART_REACH px out, 7.97 px, RMS 2.9)
 RESTART_REACH = 4.0
 RESTART_SHIFT = 0.1  # (a ball's centroids are 0.3-0.5 px off at 12 px, blur 0.7, exposure 0.3)
 

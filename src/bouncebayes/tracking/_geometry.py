@@ -384,9 +384,9 @@ def to_plane_frame(track: Track, calibration: Calibration, surface: Surface,
     rows through its centre were read: ``k / fps`` (``k`` the frame's place in the camera's
     sequence where frames were lost or repeated: ``Track.timing``), plus ``readout v /
     height`` for a rolling shutter that reads the ``height`` rows top to bottom in
-    ``readout`` seconds (``v`` the
-    centre's row, px from the top; 0: a global shutter). To first order the centre of a ball
-    so read, sheared by its motion, is where the ball was when its centre's row was read."""
+    ``readout`` seconds (``v`` the centre's row, px from the top; 0: a global shutter). To
+    first order the centre of a ball so read, sheared by its motion, is where the ball was
+    when its centre's row was read."""
     fps = check_scalar("fps", fps, unit="frames/s", low=0.0, low_open=True)
     readout = check_scalar("readout", readout, unit="s", low=0.0, high=1.0 / fps)
     e, n = plane_axes(track, surface)

@@ -39,8 +39,9 @@ SIGNIFICANT = 5.0   # ... where it is this many standard errors too ...
 # ... and the division model straightening it explains EXPLAINED of the edge pixels' variance
 # across their line or more: a bow the lens makes is smooth and spans the edge; the texture of
 # a wall over a faint surface step (a dark 15 px ball's scene, benchmarks/tracking_accuracy.py:
-# Canny's edge in pieces with hooks, 152 pixels over 240 px) made a bow of 1.55 +- 0.31 px
-# that explained 0.20 of it; a lens bending the rendered frames by 10 % at the corners, 0.90
+# Canny's edge in pieces with hooks) made, with the pixels within 2 px of a refitted parabola
+# (before _edge_pixels' RANSAC), a bow of 1.55 +- 0.31 px that explained 0.20 of it (now 0.28
+# +- 0.16 px, 0.02); a lens bending the rendered frames by 10 % at the corners, 0.92
 EXPLAINED = 0.35
 # ... and the line lies OFF_CENTRE half-diagonals or more from the frame's centre at its
 # nearest: nearer, a lens bows a line too little to tell from an edge that wobbles (the
@@ -109,9 +110,13 @@ def _edge_pixels(edges: np.ndarray, point, direction) -> tuple[np.ndarray, np.nd
     xs, ds = x[picks], d[picks]
     vander = np.stack([np.ones_like(xs), xs, xs * xs], axis=-1)
     ok = np.abs(np.linalg.det(vander)) > 1e-9
+    if not ok.any():
+        return np.zeros(0), np.zeros(0)
     coef = np.linalg.solve(vander[ok], ds[ok][..., None])[..., 0]
     support = (np.abs(d[None, :] - coef @ np.vstack([np.ones_like(x), x, x * x])) <= INLIER_PX)
     inliers = support[int(np.argmax(support @ strength))]
+    if inliers.sum() < 3:
+        return np.zeros(0), np.zeros(0)
     refit = np.polyfit(x[inliers], d[inliers], 2)
     inliers = np.abs(d - np.polyval(refit, x)) <= INLIER_PX
     return us[inliers].astype(float), vs[inliers].astype(float)
@@ -153,8 +158,8 @@ def bend(edges: np.ndarray, point, direction) -> LensBend | None:
     res = across - design @ coef
     scatter = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), 1 / math.sqrt(12))
     cov = np.linalg.inv(design.T @ design) * scatter ** 2 * CORRELATION_PX
-    # the parabola's middle against its ends: -coef[2] across (x = 0 against x = +-1), signed
-    # away from the frame's centre
+    # the parabola's middle against its ends (x = 0 against x = +-1) is -coef[2] across the
+    # line; signed away from the frame's centre (``towards`` its side), coef[2] * towards
     middle = np.array([point[0] + mid * e[0], point[1] + mid * e[1]])
     towards = np.sign((centre[0] - middle[0]) * e[1] - (centre[1] - middle[1]) * e[0]) or 1.0
     sagitta, sagitta_se = float(coef[2]) * towards, math.sqrt(float(cov[2, 2]))

@@ -5,10 +5,10 @@ both call."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from collections.abc import Sequence
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -16,8 +16,8 @@ import cv2
 import numpy as np
 
 from .._errors import InputFileError
-from .._validate import check_choice
 from .._io import write_json, write_with
+from .._validate import check_choice
 from .._version import __version__
 from ._geometry import (
     Calibration,

@@ -15,9 +15,9 @@ from ._camera import stabilise
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import edge_offset, fit_ball_radius, frame_quality
 from ._timing import FrameTiming, frame_timing
+from ._tone import check_tone_curve, decode, decode_table
 
 TIMING_SD_PX = 0.2  # the centres' SD taken for the frames' timing where the edge model has none
-from ._tone import check_tone_curve, decode, decode_table
 
 Polarity = Literal["auto", "bright", "dark"]
 POLARITIES: tuple[str, ...] = get_args(Polarity)
@@ -358,8 +358,7 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config,
               noise: float) -> dict[str, Any]:
     """The fits after the search, on ``centre`` (moved in place): the edge model's radius
     (:func:`._quality.fit_ball_radius`; ``noise`` the frames', grey levels), its centres'
-    offset to the centroids, and the
-    per-frame centre fits (:func:`._refine.refine_centres`). They get the background with the
+    offset to the centroids, and the per-frame centre fits (:func:`._refine.refine_centres`). They get the background with the
     ball left out around where they look (:func:`_ball_free_background`), or the one given
     (``given``) as it is. Returns :class:`Track`'s fields of them: ``radius_fit``,
     ``centre_offset`` (the centroids'), ``refined`` (the mask of refined frames) and
