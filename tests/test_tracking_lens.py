@@ -103,6 +103,7 @@ def test_a_clip_through_a_wide_lens_is_said_to_bend_lines_and_undistorted(tmp_pa
             assert abs(record["surface"]["angle_deg"]) > 0.8
         else:
             assert "were undistorted" in said and record["lens"]["undistorted"]
+            assert (out / f"{name}.overlay.png").is_file()
             assert abs(record["surface"]["angle_deg"]) < 0.1
             assert abs(fit.incidence_angle - throw.angle_in) < 3 * fit.incidence_angle_se
             assert abs(fit.rebound_angle - throw.rebound_angle()) < 3 * fit.rebound_angle_se

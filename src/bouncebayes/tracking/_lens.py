@@ -245,14 +245,15 @@ def bend_message(lens: LensBend | None, corrected: bool = False) -> str | None:
     kind = "barrel: a wide lens" if lens.sagitta_px > 0 else "pincushion"
     said = (f"lens: the surface edge bows by {abs(lens.sagitta_px):.1f} +- "
             f"{lens.sagitta_se_px:.1f} px over its {lens.length_px:.0f} px ({kind}): the lens "
-            "bends straight lines, and one scale does not hold over the frame (lengths near "
-            f"its corners come out about {100 * lens.lam:+.0f} % off, division model lambda "
-            f"{lens.lam:+.3f} +- {lens.lam_se:.3f})")
+            "bends straight lines")
+    model = f"division model lambda {lens.lam:+.3f} +- {lens.lam_se:.3f}"
     if corrected:
-        return (said + "; the frames were undistorted by that model (about the frame's "
+        return (said + f" (as taken, lengths near the frame's corners {100 * lens.lam:+.0f} "
+                f"%; {model}); the frames were undistorted by that model (about the frame's "
                 "centre) and tracked again. A calibration of the camera does better: undistort "
                 "the frames with it (OpenCV: calibrateCamera, undistort) and give --lens none")
-    return (said + "; positions, speeds and angles away from the frame's centre are off with "
-            "them. Undistort the frames with the camera's calibration first (OpenCV: "
-            "calibrateCamera, undistort), or give --lens auto, or film the bounce near the "
-            "frame's centre")
+    return (said + ", and one scale does not hold over the frame (lengths near its corners "
+            f"come out about {100 * lens.lam:+.0f} % off, {model}); positions, speeds and "
+            "angles away from the frame's centre are off with them. Undistort the frames with "
+            "the camera's calibration first (OpenCV: calibrateCamera, undistort), or give "
+            "--lens auto, or film the bounce near the frame's centre")

@@ -613,7 +613,9 @@ def write_track_files(video: TrackedVideo, folder: str | os.PathLike, *,
                "flag": tr.flag[k].astype(float)}
     write_trajectory(files["trajectory"], traj.t, traj.x, traj.y, quality=quality)
     overlay_image(video.source.frames, tr, files["overlay"], calibration=video.calibration,
-                  surface=video.surface, title=name)
+                  surface=video.surface,
+                  title=name + (", frames undistorted for the lens" if video.undistorted
+                                is not None else ""))
     record = track_record(video, settings or {}, files)
     write_json(files["record"], record)
     # the flights' fall, read as the kinematics read the files just written (the record's
