@@ -907,8 +907,14 @@ def test_the_balls_shadow_on_the_wall_is_left_out_and_said():
     assert abs(track.radius_fit.radius / 10.0 - 1) < 0.015
     assert rms(track.centre - shot.true_centres()) < 0.15
     assert track.radius_fit.foreign == 1.0 and "shadow" in radius_warning(track)
+    # and the scale's stated SD holds what the shadow's penumbra can still do (_edge.
+    # FOREIGN_REL_SD: rendered shadows of bright 10-15 px balls, scale errors RMS 1.4 %)
+    from bouncebayes.tracking._edge import FOREIGN_REL_SD
+
+    assert Calibration.from_track(shot.diameter_m, track).relative_sd >= FOREIGN_REL_SD
     clear = track_ball(render(Shot(**kw)))  # no shadow: nothing left out, nothing said
     assert clear.radius_fit.foreign == 0.0 and radius_warning(clear) is None
+    assert Calibration.from_track(shot.diameter_m, clear).relative_sd < FOREIGN_REL_SD
 
 
 @pytest.mark.parametrize("seed", [0, 2])
@@ -1306,12 +1312,20 @@ def test_the_scales_uncertainty_follows_what_measured_the_radius():
 
     from bouncebayes.tracking._edge import compression_px
 
-    fit = SimpleNamespace(sigma=0.6, method="small-ball fit")
+    from bouncebayes.tracking._edge import FOREIGN_REL_SD
+
+    fit = SimpleNamespace(sigma=0.6, method="small-ball fit", foreign=0.0)
     track = SimpleNamespace(ball_radius=5.0, ball_radius_se=0.03, radius_fit=fit)
     coded = Calibration.from_track(0.0256, track, None, 0.05)
     assert coded.metres_per_px == small.metres_per_px
-    assert coded.relative_sd == pytest.approx(math.hypot(
-        0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * 0.6**3, compression_px(None, 0.05)) / 5.0)
+    rel = math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * 0.6**3,
+                     compression_px(None, 0.05)) / 5.0
+    assert coded.relative_sd == pytest.approx(rel)
+    # sides of the rim left out in every frame fitted (a lamp's shadow): FOREIGN_REL_SD more
+    shadowed = SimpleNamespace(**{**vars(track), "radius_fit": SimpleNamespace(
+        sigma=0.6, method="small-ball fit", foreign=1.0)})
+    assert Calibration.from_track(0.0256, shadowed, None, 0.05).relative_sd == \
+        pytest.approx(math.hypot(rel, FOREIGN_REL_SD))
     unfitted = Calibration.from_track(0.0256, SimpleNamespace(ball_radius=5.0,
                                                               ball_radius_se=0.03,
                                                               radius_fit=None))

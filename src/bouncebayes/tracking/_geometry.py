@@ -49,21 +49,23 @@ class Calibration:
                            blur_px: float | None = None,
                            method: str = EDGE_MODEL,
                            jpeg_quality: float | None = None,
-                           bits_per_pixel: float | None = None) -> Calibration:
+                           bits_per_pixel: float | None = None,
+                           foreign: float = 0.0) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
         to which the systematic error of what measured it is added in quadrature
         (:func:`radius_relative_sd`: ``method`` ``"edge model"``, with the fitted blur
         ``blur_px``, or ``"small-ball fit"``; ``Track.radius_fit.method``; and the frames'
         JPEG quality, ``VideoSource.jpeg_quality``, or the video's bits per pixel,
-        ``VideoSource.bits_per_pixel``, where known)."""
+        ``VideoSource.bits_per_pixel``, where known; and ``foreign``, the fraction of the
+        frames fitted with sides of the rim left out, ``RadiusFit.foreign``)."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
         method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT))
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
             rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method, jpeg_quality,
-                                     bits_per_pixel)
+                                     bits_per_pixel, foreign)
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 
@@ -77,7 +79,8 @@ class Calibration:
         return cls.from_ball_diameter(diameter, track.ball_radius, track.ball_radius_se,
                                       fit.sigma if fit is not None else None,
                                       fit.method if fit is not None else EDGE_MODEL,
-                                      jpeg_quality, bits_per_pixel)
+                                      jpeg_quality, bits_per_pixel,
+                                      fit.foreign if fit is not None else 0.0)
 
 
 def _point(name: str, p) -> tuple[float, float]:

@@ -405,17 +405,14 @@ def tone_curve_warning(video: TrackedVideo) -> str | None:
             "or --reference")
 
 
-# the fraction of the frames fitted whose wall beside the ball is not the background's on
-# some side, from which the ball's radius gets a warning (RadiusFit.foreign)
-FOREIGN_WARNING = 0.5
-
-
 def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
     unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (blurred
     enough that the blur's shape matters, or a small ball); None where neither."""
     from ._edge import (
         EDGE_MODEL,
+        FOREIGN_REL_SD,
+        FOREIGN_WARNING,
         PSF_SHAPE_FROM,
         UNCERTAIN_RADIUS,
         UNRELIABLE_BLUR,
@@ -435,9 +432,11 @@ def radius_warning(track: Track) -> str | None:
                 "is not the background model's on some side (a shadow of the ball cast on the "
                 "wall by a lamp, a reflection, a lit patch that moves with it): that side of its "
                 "edge was left out, but its radius and centres can still be off by a few per "
-                "cent and a few tenths of a pixel; light the scene so that the ball casts no "
-                "shadow beside it, or give --reference")
-    rel = radius_relative_sd(fit.radius, fit.radius_se, fit.sigma, fit.method)
+                f"cent and a few tenths of a pixel (+-{100 * FOREIGN_REL_SD:.1f} % in the "
+                "stated uncertainty of the --ball-diameter scale); light the scene so that the "
+                "ball casts no shadow beside it, or give --reference")
+    rel = radius_relative_sd(fit.radius, fit.radius_se, fit.sigma, fit.method,
+                             foreign=fit.foreign)
     if rel > UNCERTAIN_RADIUS and fit.method == EDGE_MODEL \
             and fit.sigma > PSF_SHAPE_FROM * fit.radius:
         return (f"the ball's edge is blurred by {fit.sigma:.2g} px for a radius of "
