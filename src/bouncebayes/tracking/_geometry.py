@@ -250,13 +250,14 @@ SAME_SIDE = 0.85
 
 
 def canny_edges(img: np.ndarray, blur: float = 1.5, level: float = 98.0
-                ) -> tuple[np.ndarray, np.ndarray]:
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Canny's edges of ``img`` (uint8) smoothed by ``blur`` px, the high threshold at the
-    ``level`` percentile of the gradient (the low at half of it); and the smoothed image."""
+    ``level`` percentile of the gradient (the low at half of it); the smoothed image, and its
+    gradient's magnitude (Sobel, float32)."""
     smooth = cv2.GaussianBlur(img, (0, 0), blur)
     grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
     high = float(np.percentile(grad, level))
-    return cv2.Canny(smooth, 0.5 * high, high), smooth
+    return cv2.Canny(smooth, 0.5 * high, high), smooth, grad
 
 
 def _segments(img: np.ndarray, blur: float, level: float, gap: int, min_length: float
@@ -266,7 +267,7 @@ def _segments(img: np.ndarray, blur: float, level: float, gap: int, min_length: 
     gradient, then a probabilistic Hough transform bridging ``gap`` px; and the edges and the
     smoothed image."""
     w = img.shape[1]
-    edges, smooth = canny_edges(img, blur, level)
+    edges, smooth, _ = canny_edges(img, blur, level)
     lines = cv2.HoughLinesP(edges, 1, np.pi / 720, threshold=int(0.15 * w),
                             minLineLength=min_length * w, maxLineGap=gap)
     segments = [] if lines is None else [tuple(float(v) for v in s) for s in lines.reshape(-1, 4)]

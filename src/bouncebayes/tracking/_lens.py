@@ -145,8 +145,7 @@ def bend(edges: np.ndarray, point, direction) -> LensBend | None:
     u, v = _edge_pixels(edges, point, direction)
     if u.size < 50:
         return None
-    h, w = edges.shape
-    centre, scale = ((w - 1) / 2.0, (h - 1) / 2.0), math.hypot(w, h) / 2.0
+    centre, scale = _frame_centre(edges.shape)
     e = np.asarray(direction, dtype=float) / math.hypot(*direction)
     along = (u - point[0]) * e[0] + (v - point[1]) * e[1]
     across = (u - point[0]) * e[1] - (v - point[1]) * e[0]
@@ -184,21 +183,24 @@ def surface_bend(background: np.ndarray, point, direction) -> LensBend | None:
     """:func:`bend` of the surface line through ``point`` along ``direction`` in the
     background model's edges (Canny's, as the surface was found: ``_geometry.canny_edges``),
     each weighed by its gradient's magnitude."""
-    import cv2
-
     from ._geometry import canny_edges
 
     img = np.clip(np.asarray(background, dtype=np.float32), 0, 255).astype(np.uint8)
-    edges, smooth = canny_edges(img)
-    grad = np.hypot(cv2.Sobel(smooth, cv2.CV_32F, 1, 0), cv2.Sobel(smooth, cv2.CV_32F, 0, 1))
+    edges, _, grad = canny_edges(img)
     return bend(np.where(edges > 0, grad + 1e-6, 0.0), point, direction)
+
+
+def _frame_centre(shape: tuple[int, ...]) -> tuple[np.ndarray, float]:
+    """The division model's centre (the frame's, px) and unit of distance (its half-diagonal,
+    px) for frames of ``shape`` ``(h, w)``."""
+    h, w = shape[-2:]
+    return np.array([(w - 1) / 2.0, (h - 1) / 2.0]), math.hypot(w, h) / 2.0
 
 
 def _source(points: np.ndarray, lam: float, shape: tuple[int, int]) -> np.ndarray:
     """Where the undistorted ``points`` (px, ``(..., 2)``) lie in the frame as taken: ``r_d``
     from ``r_u = r_d / (1 + lam r_d^2)``, the root that is ``r_u`` at ``lam = 0``."""
-    h, w = shape
-    centre, scale = np.array([(w - 1) / 2.0, (h - 1) / 2.0]), math.hypot(w, h) / 2.0
+    centre, scale = _frame_centre(shape)
     d = np.asarray(points, dtype=np.float64) - centre
     ru = np.hypot(d[..., 0], d[..., 1]) / scale
     disc = np.sqrt(np.maximum(1.0 - 4.0 * lam * ru * ru, 0.0))
@@ -210,8 +212,7 @@ def _source(points: np.ndarray, lam: float, shape: tuple[int, int]) -> np.ndarra
 def undistort_points(points, lam: float, shape: tuple[int, int]) -> np.ndarray:
     """Points of the frame as taken (px, ``(..., 2)``) in the frame undistorted by the division
     model ``lam`` (the frame ``shape`` ``(h, w)`` sets its centre and scale)."""
-    h, w = shape
-    centre, scale = np.array([(w - 1) / 2.0, (h - 1) / 2.0]), math.hypot(w, h) / 2.0
+    centre, scale = _frame_centre(shape)
     d = np.asarray(points, dtype=np.float64) - centre
     r2 = (d[..., 0] ** 2 + d[..., 1] ** 2) / scale ** 2
     return centre + d / (1.0 + lam * r2)[..., None]
