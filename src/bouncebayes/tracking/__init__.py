@@ -39,7 +39,9 @@ The pipeline, one pure function per stage (paper §3 did this by hand in Tracker
    by the ball's steps (``Track.timing``, ``_timing.py``): each frame's place in the camera's
    sequence, the repeated ones flagged, and said.
 3. :class:`Calibration` (metres per pixel, from a reference length or the ball diameter) and
-   :class:`Surface` (the surface line, from two points or :func:`detect_surface`).
+   :class:`Surface` (the surface line, from two points or :func:`detect_surface`); with the
+   surface known, frames lost at a bounce are told by where the flights either side meet
+   (``_timing.lost_at_bounces``).
 4. :func:`to_plane_frame`: ``x`` along the surface in the direction of travel, ``y`` along the
    outward normal (the side of the ball), metres; then :func:`write_track_files`: the
    trajectory (``bouncebayes.data.write_trajectory``, with the per-frame quality columns), the

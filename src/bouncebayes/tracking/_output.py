@@ -31,7 +31,7 @@ from ._camera import rounded, shift_frames
 from ._lens import LensBend, bend_message, surface_bend, undistort, undistort_points
 from ._measure import CENTROID, EDGE_FIT
 from ._tone import tone_curve_label
-from ._track import Track, TrackerConfig, background_model, track_ball
+from ._track import Track, TrackerConfig, background_model, timed_at_bounces, track_ball
 from ._video import VideoSource, read_frames, read_image
 
 PAPER_BALL_DIAMETER = 0.0256  # m, paper §3 (= bouncebayes.PAPER_BALL.diameter)
@@ -279,6 +279,7 @@ def _tracked(source: VideoSource, config: TrackerConfig, ball_diameter, referenc
                                  "must be a straight edge that the ball does not cross, "
                                  "spanning 30% of the width): give two points on it with "
                                  "--surface X1,Y1,X2,Y2")
+    track = timed_at_bounces(track, *plane_axes(track, surface))
     trajectory = to_plane_frame(track, calibration, surface, source.fps, readout)
     return TrackedVideo(source=source, track=track, calibration=calibration, surface=surface,
                         trajectory=trajectory,
@@ -516,6 +517,8 @@ def _timing_record(track: Track) -> dict[str, object]:
     lost = np.flatnonzero(timing.lost) if timing is not None else np.zeros(0, int)
     return {"lost_before_frames": lost.tolist(),
             "lost_counts": timing.lost[lost].tolist() if timing is not None else [],
+            "lost_at_bounce_before_frames": np.flatnonzero(timing.at_bounce).tolist()
+            if timing is not None else [],
             "repeated_frames": np.flatnonzero(timing.repeated).tolist()
             if timing is not None else [],
             "warning": timing_warning(track)}

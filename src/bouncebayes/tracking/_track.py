@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import functools
 import math
 from dataclasses import dataclass, field
@@ -14,7 +16,7 @@ from ._edge import SMALL_BALL_FIT, RadiusFit, spread
 from ._camera import stabilise
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import edge_offset, fit_ball_radius, frame_quality
-from ._timing import FrameTiming, frame_timing
+from ._timing import FrameTiming, frame_timing, lost_at_bounces
 from ._tone import check_tone_curve, decode, decode_table
 
 TIMING_SD_PX = 0.2  # the centres' SD taken for the frames' timing where the edge model has none
@@ -332,6 +334,21 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, tone_curve=config.tone_curve,
                  camera_shift=camera, timing=timing, **fitted)
+
+
+def timed_at_bounces(track: Track, along: np.ndarray, normal: np.ndarray) -> Track:
+    """``track`` with the frames lost at its bounces told (:func:`._timing.lost_at_bounces`;
+    ``along`` and ``normal``: image unit vectors along the surface and normal to it)."""
+    if track.timing is None:
+        return track
+    fit = track.radius_fit
+    timing = lost_at_bounces(track.timing, track.centre, track.found & ~track.flag, along,
+                             normal, fit.centre_sd if fit is not None else TIMING_SD_PX)
+    if timing is track.timing:
+        return track
+    for a in timing:
+        a.setflags(write=False)
+    return dataclasses.replace(track, timing=timing)
 
 
 def _decoded(frames, background, config: TrackerConfig
