@@ -30,9 +30,10 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   cast on the wall by a lamp (``cast``: an offset disk, its penumbra 0.3 radii wide), a glossy
   surface (``reflect``: the ball's mirror image below the surface line, its radiance times
   the reflectance added to the plane's).
-- **Camera motion** (``camera``, one ``(du, dv)`` per frame): frame ``k`` shows the scene
-  point ``p + d_k`` at pixel ``p`` (the whole scene rendered again at the shifted points;
-  ``true_centres`` stay in the scene's pixels).
+- **Camera motion** (``camera``, one ``(du, dv)`` or ``(du, dv, turn, zoom)`` per frame):
+  frame ``k`` shows the scene point ``p + d_k`` at pixel ``p``, or with a turn (degrees) and
+  zoom (a fraction) ``c + (1 + zoom) R(turn) (p - c) + d_k``, ``c`` the frame's centre (the
+  whole scene rendered again at those points; ``true_centres`` stay in the scene's pixels).
 - **Sensor**: gain to grey levels, shot noise (variance ``shot * grey``) plus read noise,
   clipping at 0 and 255 (a saturated highlight), optionally the camera's tone curve (``tone``:
   ``"srgb"``, IEC 61966-2-1's encoding, or ``"rec709"``, the BT.709 camera curve, applied to the
@@ -120,7 +121,8 @@ class Shot:
     occluder_u: float | None = None   # column of a static post in front of the ball
     shadow: float = 0.0               # depth (0-1) of a soft contact shadow under the ball
     reflect: float = 0.0              # reflectance of a glossy surface: the ball's mirror image
-    camera: tuple[tuple[float, float], ...] | None = None  # per frame: the camera's shift (px)
+    camera: tuple[tuple[float, ...], ...] | None = None  # per frame: the camera's shift (px)
+    #                                   and optionally its turn (degrees) and zoom (fraction)
     cast: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the ball's shadow on the wall: its
     #                                   offset from the ball (u, v, in radii) and depth (0-1)
     # sensor and codec
@@ -245,12 +247,16 @@ def render(shot: Shot) -> np.ndarray:
     margin = int(math.ceil(4 * shot.sigma_px)) + 3
     frames = np.empty((shot.n_frames, h, w), np.uint8)
     base = down(blur(wall_hi.astype(np.float32)))
-    scene = {"wall": wall_hi, "post": post, "d": np.zeros(2)}
+    scene = {"wall": wall_hi, "post": post, "d": np.zeros(2), "map": None}
 
     def window(cs: np.ndarray, sl, ts: np.ndarray) -> np.ndarray:
         """The window ``sl`` (super-sampled slices) with the ball at the positions ``cs``
         (times ``ts``) averaged (the exposure), blurred and integrated over pixels."""
-        Uw, Vw, bw = U[sl] + scene["d"][0], V[sl] + scene["d"][1], scene["wall"][sl]
+        if scene["map"] is not None:  # a turned or zoomed camera: the scene's points
+            Uw, Vw = scene["map"][0][sl], scene["map"][1][sl]
+        else:
+            Uw, Vw = U[sl] + scene["d"][0], V[sl] + scene["d"][1]
+        bw = scene["wall"][sl]
         post = scene["post"]
         acc = np.zeros(Uw.shape)
         for (cu, cv), t in zip(cs, ts, strict=True):
@@ -278,17 +284,31 @@ def render(shot: Shot) -> np.ndarray:
         late = shot.readout * np.arange(h) / h
         cs = shot.pixels(shot.plane_xy(k / shot.fps + offsets[:, None] + late[[0, -1]]
                                        ).reshape(-1, 2))
-        shift = np.zeros(2) if shot.camera is None else np.asarray(shot.camera[k], float)
-        if shift.any():  # the scene at p + d: the wall drawn again, the ball at c - d
+        cam = np.zeros(2) if shot.camera is None else np.asarray(shot.camera[k], float)
+        shift = cam[:2]
+        if cam.size == 4 and cam[2:].any():  # turned or zoomed: the scene at c + A (p - c) + d
+            A, mid = _camera_matrix(cam), np.array([(w - 1) / 2.0, (h - 1) / 2.0])
+            Us = mid[0] + A[0, 0] * (U - mid[0]) + A[0, 1] * (V - mid[1]) + shift[0]
+            Vs = mid[1] + A[1, 0] * (U - mid[0]) + A[1, 1] * (V - mid[1]) + shift[1]
+            wall_k = _wall(shot, Us, Vs, shot.seed)
+            post_k = None
+            if shot.occluder_u is not None:
+                post_k = np.clip(3.0 - np.abs(Us - shot.occluder_u), 0.0, 1.0)
+                wall_k = wall_k * (1 - post_k) + 30.0 * post_k
+            scene.update(wall=wall_k, post=post_k, d=shift, map=(Us, Vs))
+            img = down(blur(wall_k.astype(np.float32)))
+            # the window's bounds in the image: the ball's scene points mapped back
+            cs = mid + (cs - mid - shift) @ np.linalg.inv(A).T + shift
+        elif shift.any():  # the scene at p + d: the wall drawn again, the ball at c - d
             wall_k = _wall(shot, U + shift[0], V + shift[1], shot.seed)
             post_k = None
             if shot.occluder_u is not None:
                 post_k = np.clip(3.0 - np.abs(U + shift[0] - shot.occluder_u), 0.0, 1.0)
                 wall_k = wall_k * (1 - post_k) + 30.0 * post_k
-            scene.update(wall=wall_k, post=post_k, d=shift)
+            scene.update(wall=wall_k, post=post_k, d=shift, map=None)
             img = down(blur(wall_k.astype(np.float32)))
         else:
-            scene.update(wall=wall_hi, post=post, d=shift)
+            scene.update(wall=wall_hi, post=post, d=shift, map=None)
             img = base.copy()
         cs = cs - shift  # the window's bounds in the image
         # the window reaches two margins beyond the ball: the blur's halo (one margin) is
@@ -323,6 +343,13 @@ def render(shot: Shot) -> np.ndarray:
             noisy = 255.0 * _encode(np.clip(noisy, 0.0, 255.0) / 255.0, shot.tone)
         frames[k] = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
     return _codec(frames, shot) if shot.codec else frames
+
+
+def _camera_matrix(cam: np.ndarray) -> np.ndarray:
+    """``(1 + zoom) R(turn)`` of a camera entry ``(du, dv, turn_deg, zoom)``."""
+    a = math.radians(float(cam[2]))
+    return (1.0 + float(cam[3])) * np.array([[math.cos(a), -math.sin(a)],
+                                             [math.sin(a), math.cos(a)]])
 
 
 def _encode(x: np.ndarray, tone: str) -> np.ndarray:

@@ -27,7 +27,7 @@ from ._geometry import (
     plane_axes,
     to_plane_frame,
 )
-from ._camera import rounded, shift_frames
+from ._camera import motion_px, rounded, shift_frames
 from ._lens import LensBend, bend_message, surface_bend, undistort, undistort_points
 from ._measure import CENTROID, EDGE_FIT
 from ._tone import tone_curve_label
@@ -306,8 +306,8 @@ def _detected_surface(track: Track, source: VideoSource, background,
     surface = detect_surface(track.background, **near)
     if surface is None and track.tone_curve not in (None, "linear"):
         frames = source.frames
-        if track.camera_shift.any():  # moved back as the track's frames were
-            frames = rounded(shift_frames(frames, track.camera_shift))
+        if track.camera_shift.any() or track.camera_turn.any():  # as the track's frames were
+            frames = rounded(shift_frames(frames, camera_motion(track)))
         stored = background_model(frames, n_frames) if background is None else background
         surface = detect_surface(stored, **near)
     return surface
@@ -466,21 +466,38 @@ def _coding_record(video: TrackedVideo) -> dict[str, object]:
 
 
 def camera_shift_max(track: Track) -> float:
-    """The largest shift (px) the camera had made in any frame (0: it did not move)."""
-    shift = track.camera_shift
-    return float(np.hypot(*shift.T).max()) if shift.size else 0.0
+    """How far (px) the camera had moved the picture in any frame, at most: its shift plus
+    what its turn and zoom moved the frame's corners by (0: it did not move)."""
+    if not track.camera_shift.size:
+        return 0.0
+    m = camera_motion(track)
+    return float((np.hypot(m[:, 0], m[:, 1]) + np.hypot(m[:, 2], m[:, 3])).max())
+
+
+def camera_motion(track: Track) -> np.ndarray:
+    """Each frame's shift, turn and zoom as :func:`._camera.shift_frames` takes them."""
+    n = len(track.centre)
+    shift = track.camera_shift if track.camera_shift.size else np.zeros((n, 2))
+    turn = track.camera_turn if track.camera_turn.size else np.zeros((n, 2))
+    return motion_px(shift, turn, track.background.shape)
 
 
 def camera_message(track: Track) -> str | None:
     """In words, where the camera moved: how far, in which frames, and what was done."""
-    shift = track.camera_shift
-    if not shift.size or not shift.any():
+    shift, turn = track.camera_shift, track.camera_turn
+    shifted, turned = shift.size and shift.any(), turn.size and turn.any()
+    if not shifted and not turned:
         return None
-    size = np.hypot(*shift.T)
-    moved = np.flatnonzero(size > 0)
-    return (f"camera: moved by up to {size.max():.2f} px (in {len(moved)} frames, "
+    size = np.hypot(*shift.T) if shift.size else np.zeros(len(turn))
+    moved = np.flatnonzero((size > 0) | (turn.any(axis=1) if turn.size else False))
+    what = [f"by up to {size.max():.2f} px"] if shifted else []
+    if turned:
+        what.append(f"turned by up to {np.abs(turn[:, 0]).max():.3f} deg and zoomed by up "
+                    f"to {100 * np.abs(turn[:, 1]).max():.2f} % (about the frame's centre)")
+    return (f"camera: moved {' and '.join(what)} (in {len(moved)} frames, "
             f"{moved[0]}-{moved[-1]}); those frames were moved back onto the background "
-            "before tracking (per-frame camera_du_px / camera_dv_px in the record)")
+            "before tracking (per-frame camera_du_px / camera_dv_px / camera_turn_deg / "
+            "camera_zoom in the record)")
 
 
 def lens_warning(video: TrackedVideo) -> str | None:
@@ -527,7 +544,9 @@ def _timing_record(track: Track) -> dict[str, object]:
 def _camera_columns(track: Track, n: int) -> dict[str, list]:
     """The record's per-frame camera shift (px), zeros where it did not move."""
     shift = track.camera_shift if track.camera_shift.size else np.zeros((n, 2))
-    return {"camera_du_px": _floats(shift[:, 0], 4), "camera_dv_px": _floats(shift[:, 1], 4)}
+    turn = track.camera_turn if track.camera_turn.size else np.zeros((n, 2))
+    return {"camera_du_px": _floats(shift[:, 0], 4), "camera_dv_px": _floats(shift[:, 1], 4),
+            "camera_turn_deg": _floats(turn[:, 0], 5), "camera_zoom": _floats(turn[:, 1], 6)}
 
 
 def _per_frame(tr: Track, n: int) -> dict[str, object]:

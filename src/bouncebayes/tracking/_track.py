@@ -105,7 +105,9 @@ class Track:
     levels). ``camera_shift`` ``(n, 2)``: how far (px) the camera had moved in each frame
     against the background, the frames moved back by it before anything was measured
     (:mod:`._camera`; zeros where it did not move, and the centres are in the background's
-    pixels). ``timing``: each frame's place in the camera's sequence where frames were lost
+    pixels); ``camera_turn`` ``(n, 2)``: how far it had turned (degrees, about the frame's
+    centre) and zoomed (the field of view wider by, a fraction), moved back likewise
+    (:func:`._camera.turn_and_zoom`). ``timing``: each frame's place in the camera's sequence where frames were lost
     or repeated (:mod:`._timing`; the repeated frames are flagged; None: every frame at
     ``k / fps``, as a track made before).
     """
@@ -127,6 +129,7 @@ class Track:
     refined_offset: tuple[float, float] = (0.0, 0.0)
     tone_curve: str | float | None = None
     camera_shift: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    camera_turn: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     timing: FrameTiming | None = None
 
     @property
@@ -288,7 +291,8 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     path of :mod:`._measure` (the reference it is tested against, and the benchmark's)."""
     frames, background = _decoded(frames, background, config)
     # the frames moved back onto the background's pixels where the camera moved (._camera)
-    frames, bg, camera = stabilise(frames, functools.partial(_background, background, config))
+    frames, bg, camera, turn = stabilise(frames,
+                                         functools.partial(_background, background, config))
     noise, sign = _noise_and_polarity(frames, bg, config)
     threshold = max(config.threshold_sigma * noise, config.min_contrast)
     state = _Searcher(bg, sign, threshold)
@@ -328,12 +332,12 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
                           fit.centre_sd if fit is not None else TIMING_SD_PX)
     flag = flag | timing.repeated
     for a in (centre, radius, method, contrast, residual, visible, flag, fitted["refined"],
-              camera, *timing):
+              camera, turn, *timing):
         a.setflags(write=False)
     return Track(centre=centre, radius=radius, method=method, contrast=contrast, background=bg,
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, tone_curve=config.tone_curve,
-                 camera_shift=camera, timing=timing, **fitted)
+                 camera_shift=camera, camera_turn=turn, timing=timing, **fitted)
 
 
 def timed_at_bounces(track: Track, along: np.ndarray, normal: np.ndarray) -> Track:
