@@ -34,6 +34,9 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   frame ``k`` shows the scene point ``p + d_k`` at pixel ``p``, or with a turn (degrees) and
   zoom (a fraction) ``c + (1 + zoom) R(turn) (p - c) + d_k``, ``c`` the frame's centre (the
   whole scene rendered again at those points; ``true_centres`` stay in the scene's pixels).
+- **The ball towards the camera** (``approach``, 1/s): its picture (radius and offset from the
+  frame's centre) ``1 / (1 - approach t)`` times its size at ``t = 0``, as a pinhole camera
+  sees a ball coming closer at a steady speed (the wall and surface stay where they are).
 - **Sensor**: gain to grey levels, shot noise (variance ``shot * grey``) plus read noise,
   clipping at 0 and 255 (a saturated highlight), optionally the camera's tone curve (``tone``:
   ``"srgb"``, IEC 61966-2-1's encoding, or ``"rec709"``, the BT.709 camera curve, applied to the
@@ -46,6 +49,7 @@ plane-frame bounce velocities of :class:`Throw`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tempfile
 from dataclasses import dataclass, field
@@ -132,6 +136,9 @@ class Shot:
     tone: str = "linear"              # the camera's tone curve: "linear", "srgb" or "rec709"
     seed: int = 0
     throw: Throw = field(default_factory=Throw)
+    # 1/s: the ball's speed towards the camera as a fraction of its distance at t = 0 (its
+    # picture, radius and offset from the frame's centre, then 1 / (1 - approach t) times)
+    approach: float = 0.0
 
     @property
     def metres_per_px(self) -> float:
@@ -160,14 +167,27 @@ class Shot:
         uv = (xy[..., :1] * e + xy[..., 1:] * n) / self.metres_per_px
         return uv + np.array([0.0, self.surface_v])
 
+    def depth_scale(self, t: np.ndarray) -> np.ndarray:
+        """How much larger the ball's picture is at times ``t`` than at 0 (``approach``)."""
+        return 1.0 / (1.0 - self.approach * np.asarray(t, dtype=float))
+
+    def image(self, t: np.ndarray) -> np.ndarray:
+        """The ball's centre in the image (px) at times ``t``: :meth:`pixels` of
+        :meth:`plane_xy`, scaled about the frame's centre where the ball ``approach``es."""
+        c = self.pixels(self.plane_xy(t))
+        if not self.approach:
+            return c
+        mid = np.array([(self.width - 1) / 2.0, (self.height - 1) / 2.0])
+        return mid + self.depth_scale(t)[..., None] * (c - mid)
+
     def true_centres(self) -> np.ndarray:
         """Frame ``k``'s ball centre (px) at ``k / fps``; with a rolling shutter, where the ball
         was when the row through that centre was read (``k / fps + readout v / height``, by
         fixed-point iteration: the row moves by less than 0.01 px a step)."""
         t = np.arange(self.n_frames) / self.fps
-        c = self.pixels(self.plane_xy(t))
+        c = self.image(t)
         for _ in range(6 if self.readout > 0 else 0):
-            c = self.pixels(self.plane_xy(t + self.readout * c[:, 1] / self.height))
+            c = self.image(t + self.readout * c[:, 1] / self.height)
         return c
 
 
@@ -265,7 +285,9 @@ def render(shot: Shot) -> np.ndarray:
                 r = shot.radius_px
                 d = np.hypot(Uw - cu - shot.cast[0] * r, Vw - cv - shot.cast[1] * r) / r
                 bw_k = bw_k * (1.0 - shot.cast[2] * np.clip((1.15 - d) / 0.3, 0.0, 1.0))
-            cover, rad = _ball(shot, Uw - cu, Vw - cv, sub, t)
+            near = shot if not shot.approach else dataclasses.replace(
+                shot, radius_px=shot.radius_px * float(shot.depth_scale(t)))
+            cover, rad = _ball(near, Uw - cu, Vw - cv, sub, t)
             comp = bw_k * (1 - cover) + rad * cover
             if shot.reflect > 0:  # the ball mirrored in the surface, seen below it
                 e, n = shot.axes()
@@ -282,8 +304,7 @@ def render(shot: Shot) -> np.ndarray:
         # a rolling shutter reads row j at k / fps + readout j / height: the window at every
         # row's time, that row kept
         late = shot.readout * np.arange(h) / h
-        cs = shot.pixels(shot.plane_xy(k / shot.fps + offsets[:, None] + late[[0, -1]]
-                                       ).reshape(-1, 2))
+        cs = shot.image(k / shot.fps + offsets[:, None] + late[[0, -1]]).reshape(-1, 2)
         cam = np.zeros(2) if shot.camera is None else np.asarray(shot.camera[k], float)
         shift = cam[:2]
         if cam.size == 4 and cam[2:].any():  # turned or zoomed: the scene at c + A (p - c) + d
@@ -317,8 +338,9 @@ def render(shot: Shot) -> np.ndarray:
             e, n = shot.axes()
             hc = cs[:, 0] * n[0] + (cs[:, 1] - shot.surface_v) * n[1]
             cs = np.concatenate([cs, cs - 2 * hc[:, None] * n])
-        lo = np.floor(cs.min(axis=0) - shot.radius_px).astype(int) - 2 * margin
-        hi = np.ceil(cs.max(axis=0) + shot.radius_px).astype(int) + 2 * margin + 1
+        r_k = shot.radius_px * float(np.max(shot.depth_scale(k / shot.fps + offsets)))
+        lo = np.floor(cs.min(axis=0) - r_k).astype(int) - 2 * margin
+        hi = np.ceil(cs.max(axis=0) + r_k).astype(int) + 2 * margin + 1
         u0, v0 = max(lo[0], 0), max(lo[1], 0)
         u1, v1 = min(hi[0], w), min(hi[1], h)
         if u1 > u0 and v1 > v0:
@@ -327,10 +349,10 @@ def render(shot: Shot) -> np.ndarray:
                 win = np.empty((v1 - v0, u1 - u0))
                 for j in range(v0, v1):
                     ts = k / shot.fps + offsets + late[j]
-                    win[j - v0] = window(shot.pixels(shot.plane_xy(ts)), sl, ts)[j - v0]
+                    win[j - v0] = window(shot.image(ts), sl, ts)[j - v0]
             else:
                 ts = k / shot.fps + offsets
-                win = window(shot.pixels(shot.plane_xy(ts)), sl, ts)
+                win = window(shot.image(ts), sl, ts)
             # the window's blur is exact away from its border: paste the inner part only
             iu0 = 0 if u0 == 0 else margin
             iv0 = 0 if v0 == 0 else margin

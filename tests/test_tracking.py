@@ -1312,9 +1312,9 @@ def test_the_scales_uncertainty_follows_what_measured_the_radius():
 
     from bouncebayes.tracking._edge import compression_px
 
-    from bouncebayes.tracking._edge import FOREIGN_REL_SD
+    from bouncebayes.tracking._edge import FOREIGN_REL_SD, depth_change
 
-    fit = SimpleNamespace(sigma=0.6, method="small-ball fit", foreign=0.0)
+    fit = SimpleNamespace(sigma=0.6, method="small-ball fit", foreign=0.0, frames=(), radii=())
     track = SimpleNamespace(ball_radius=5.0, ball_radius_se=0.03, radius_fit=fit)
     coded = Calibration.from_track(0.0256, track, None, 0.05)
     assert coded.metres_per_px == small.metres_per_px
@@ -1323,9 +1323,18 @@ def test_the_scales_uncertainty_follows_what_measured_the_radius():
     assert coded.relative_sd == pytest.approx(rel)
     # sides of the rim left out in every frame fitted (a lamp's shadow): FOREIGN_REL_SD more
     shadowed = SimpleNamespace(**{**vars(track), "radius_fit": SimpleNamespace(
-        sigma=0.6, method="small-ball fit", foreign=1.0)})
+        sigma=0.6, method="small-ball fit", foreign=1.0, frames=(), radii=())})
     assert Calibration.from_track(0.0256, shadowed, None, 0.05).relative_sd == \
         pytest.approx(math.hypot(rel, FOREIGN_REL_SD))
+    # the ball's picture growing 3 % over the frames fitted (it comes closer): half of it more
+    frames = tuple(range(0, 90, 10))
+    closer = SimpleNamespace(**{**vars(track), "radius_fit": SimpleNamespace(
+        sigma=0.6, method="small-ball fit", foreign=0.0, frames=frames,
+        radii=tuple(5.0 * (1.0 + 0.03 * k / 80.0) for k in frames))})
+    growth = depth_change(frames, closer.radius_fit.radii)[0]
+    assert growth == pytest.approx(0.03, rel=0.02)
+    assert Calibration.from_track(0.0256, closer, None, 0.05).relative_sd == \
+        pytest.approx(math.hypot(rel, 0.5 * growth))
     unfitted = Calibration.from_track(0.0256, SimpleNamespace(ball_radius=5.0,
                                                               ball_radius_se=0.03,
                                                               radius_fit=None))

@@ -517,7 +517,7 @@ def _tracking_section(folder: str | Path) -> list[str]:
         moved = r["tracker"].get("camera_shift_max_px") or 0.0
         said = [w for w in (r["ball"].get("warning"), r.get("compression_warning"),
                             r.get("tone_curve_warning"), (r.get("timing") or {}).get("warning"),
-                            (r.get("lens") or {}).get("warning"),
+                            (r.get("lens") or {}).get("warning"), r["ball"].get("depth_warning"),
                             None if fall is None or fall["agrees"] else fall["summary"],
                             f"the camera moved by up to {moved:.2g} px (the frames moved back)"
                             if moved else None, r.get("channel_note")) if w]

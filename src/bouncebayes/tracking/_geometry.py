@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import EDGE_MODEL, SMALL_BALL_FIT, radius_relative_sd
+from ._edge import EDGE_MODEL, SMALL_BALL_FIT, depth_told, radius_relative_sd
 from ._track import Track
 
 
@@ -50,22 +50,23 @@ class Calibration:
                            method: str = EDGE_MODEL,
                            jpeg_quality: float | None = None,
                            bits_per_pixel: float | None = None,
-                           foreign: float = 0.0) -> Calibration:
+                           foreign: float = 0.0, depth: float = 0.0) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
         to which the systematic error of what measured it is added in quadrature
         (:func:`radius_relative_sd`: ``method`` ``"edge model"``, with the fitted blur
         ``blur_px``, or ``"small-ball fit"``; ``Track.radius_fit.method``; and the frames'
         JPEG quality, ``VideoSource.jpeg_quality``, or the video's bits per pixel,
-        ``VideoSource.bits_per_pixel``, where known; and ``foreign``, the fraction of the
-        frames fitted with sides of the rim left out, ``RadiusFit.foreign``)."""
+        ``VideoSource.bits_per_pixel``, where known; ``foreign``, the fraction of the
+        frames fitted with sides of the rim left out, ``RadiusFit.foreign``; and ``depth``,
+        how much the ball's picture grew over the frames, :func:`._edge.depth_told`)."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
         method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT))
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
             rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method, jpeg_quality,
-                                     bits_per_pixel, foreign)
+                                     bits_per_pixel, foreign, depth)
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 
@@ -80,7 +81,8 @@ class Calibration:
                                       fit.sigma if fit is not None else None,
                                       fit.method if fit is not None else EDGE_MODEL,
                                       jpeg_quality, bits_per_pixel,
-                                      fit.foreign if fit is not None else 0.0)
+                                      fit.foreign if fit is not None else 0.0,
+                                      depth_told(fit))
 
 
 def _point(name: str, p) -> tuple[float, float]:
