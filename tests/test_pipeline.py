@@ -2,6 +2,7 @@
 pipeline's handling of earlier results (kept intact on failure, the user's files carried over).
 """
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -463,10 +464,12 @@ def test_run_on_videos_names_the_one_whose_fall_disagrees_with_its_scale(tmp_pat
     assert fall["fall_m_s2"] == pytest.approx(9.81 / 4 * scale, abs=3 * fall["fall_se_m_s2"])
 
 
-def test_run_on_videos_says_for_each_where_frames_were_lost(tmp_path):
+def test_run_on_videos_says_for_each_where_frames_were_lost_or_the_ball_came_closer(tmp_path):
     """A video with every 10th frame lost (taken out by the test) beside one without: `run`
     says for the first which frames, and nothing of frames for the second; the trajectory's
-    times step over the gaps (bouncebayes.tracking._timing)."""
+    times step over the gaps (bouncebayes.tracking._timing). A third, whose ball comes closer
+    to the camera (the renderer's approach: its picture 1.8 % larger over the clip), is said
+    to, and only it (bouncebayes.tracking._edge.depth_change)."""
     from bouncebayes.pipeline import _track_videos
 
     sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -481,11 +484,14 @@ def test_run_on_videos_says_for_each_where_frames_were_lost(tmp_path):
     videos.mkdir()
     write_video(frames[[k for k in range(60) if k % 10 != 9]], videos / "gaps.avi", 1000.0)
     write_video(frames, videos / "whole.avi", 1000.0)
+    write_video(render(dataclasses.replace(shot, approach=0.3)), videos / "closer.avi", 1000.0)
     experiment = load_experiment(Path(__file__).resolve().parents[1] / "examples" / "paper.toml")
     lines: list[str] = []
     folder = _track_videos(videos, experiment, tmp_path / "stage", lines.append,
                            {"fps": 1000.0, "surface": None, "tone_curve": None}, False)
     told = [line for line in lines if "frame(s) lost" in line]
     assert len(told) == 1 and told[0].startswith("  warning: gaps.avi: frames: ")
+    closer = [line for line in lines if "moves towards the camera" in line]
+    assert len(closer) == 1 and closer[0].startswith("  warning: closer.avi: the ball's picture")
     t = np.loadtxt(folder / "gaps.csv", delimiter=",", skiprows=1, usecols=0)
     assert np.isclose(t[9] - t[8], 2e-3) and np.isclose(t[8] - t[7], 1e-3)

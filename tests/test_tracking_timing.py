@@ -27,7 +27,9 @@ def flight(n: int = 60, step=(3.0, -2.0), accel=(0.0, 0.02), bounce_at: int | No
 
 
 def timing_of(centres: np.ndarray, sd: float = 0.03):
-    return frame_timing(centres, np.ones(len(centres), bool), sd)
+    # a frame's picture is the one before again where its centre is (the test's copies)
+    return frame_timing(centres, np.ones(len(centres), bool), sd,
+                        lambda j: bool(np.array_equal(centres[j], centres[j - 1])))
 
 
 def test_a_clean_flight_and_bounce_tell_nothing():
@@ -87,6 +89,53 @@ def test_frames_lost_at_a_bounce_are_told_by_the_flights_either_side(gone):
     assert "at the bounce before frame(s)" in timing_message(t)
     clean = at_bounces(c)
     assert not clean.lost.any() and not clean.at_bounce.any()
+
+
+@pytest.mark.parametrize("copied", [38, 39, 40, 41])
+def test_a_copy_at_a_bounce_is_flagged_and_placed_by_the_flights(copied):
+    # expected: the copies the test put in. A frame's picture again right after it next to
+    # the bounce (frame 40): the steps either side differ and told nothing; put in, every later
+    # frame's time came one interval late, in a lost frame's place it was a sample at the
+    # wrong time
+    c = flight(n=80, bounce_at=40)
+    put_in = [*range(copied + 1), copied, *range(copied + 1, 80)]
+    t = at_bounces(c[put_in])
+    assert np.flatnonzero(t.repeated).tolist() == [copied + 1] and not t.lost.any()
+    ok = ~t.repeated
+    assert np.array_equal(t.place[ok], np.array(put_in, float)[ok])
+    replaced = [*range(copied + 1), copied, *range(copied + 2, 80)]
+    t = at_bounces(c[replaced])
+    assert np.flatnonzero(t.repeated).tolist() == [copied + 1]
+    assert np.array_equal(t.place, np.arange(80.0))
+
+
+def test_a_rendered_copy_at_the_bounce_is_told_by_its_pixels():
+    from render_pbr import Shot, Throw, render
+
+    from bouncebayes.tracking import detect_surface
+    from bouncebayes.tracking._geometry import plane_axes
+    from bouncebayes.tracking._timing import same_picture
+    from bouncebayes.tracking._track import timed_at_bounces
+
+    # expected: the copy the test put in (frame 40's picture again after it; the ball touches
+    # at 40.5). Its centre is not its original's to the last digit (each frame's fit reads
+    # the ball's velocity from its neighbours: 0.009 px apart), so the pixels tell
+    shot = Shot(width=240, height=120, radius_px=12.0, n_frames=80, surface_v=100.0,
+                slope_deg=2.0, sigma_px=0.7, exposure=0.3, supersample=2,
+                throw=Throw(speed_in=2.4, angle_in=35.0, t_contact=0.0405, x_contact=0.07))
+    frames = render(shot)
+    order = [*range(41), 40, *range(41, 80)]
+    track = track_ball(frames[order])
+    assert np.flatnonzero(track.timing.repeated).tolist() == [41]
+    surface = detect_surface(track.background, centres=track.centre[track.found],
+                             radius=track.ball_radius)
+    track = timed_at_bounces(track, *plane_axes(track, surface))
+    ok = ~track.timing.repeated
+    assert np.array_equal(track.timing.place[ok], np.array(order, float)[ok])
+    # two frames the camera took are not the same picture, the ball at the bounce included
+    clean = track_ball(frames)
+    same = same_picture(frames, clean.centre, clean.ball_radius, clean.noise)
+    assert not any(same(j) for j in range(1, 80)) and not clean.timing.repeated.any()
 
 
 def contact(t1: float, tc: float, vx_out: float, seed: int, n: int = 80) -> np.ndarray:

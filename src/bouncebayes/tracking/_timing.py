@@ -11,7 +11,10 @@ drag: a few per cent of the step), so
   there: every later frame is one (two, ...) interval later than its number says;
 - a step of nothing after a step of the ball in motion is a repeated picture: followed by a
   step like the one before, a copy put in (every later frame one interval earlier than its
-  number says), followed by twice that step, a copy in a lost frame's place (no shift).
+  number says), followed by twice that step, a copy in a lost frame's place (no shift); next
+  to a bounce, where the steps either side differ, a repeated picture where the pixels about
+  the ball are the frame before's (:func:`same_picture`), put in or not as the flights either
+  side tell (:func:`lost_at_bounces`).
 
 Rendered (tests/render_pbr.py, a 12 px ball at 1.2-3 px a frame) with every 10th frame lost:
 the rebound speed came out +11.8 % (8.7 SE) and the incidence speed +10 %, the frame rate
@@ -25,6 +28,7 @@ object's motion.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -38,6 +42,29 @@ CLEAR = 10.0       # ... and only where the ball's step is this many SDs of a st
 #                    doubles it, and noise must not (a 5 px glossy ball under a 1.5 px blur,
 #                    MJPEG, 1.5 px a frame, centres 0.3-0.6 px off: a step of twice its
 #                    neighbours by chance, with the stated SD alone)
+
+
+SAME_NOISE = 0.3  # a frame's picture is the one before again where the median difference
+#                   about the ball is this fraction of the noise or less (two frames the
+#                   camera took: 0.95 of it, their noise differing)
+
+
+def same_picture(frames: np.ndarray, centre: np.ndarray, radius: float, noise: float
+                 ) -> Callable[[int], bool]:
+    """``same`` for :func:`frame_timing`: whether frame ``j``'s pixels within two radii of
+    the ball are frame ``j - 1``'s (their median absolute difference at most ``SAME_NOISE``
+    of the frames' ``noise``, grey levels)."""
+    h, w = frames.shape[1:]
+    reach = int(math.ceil(2.0 * radius)) + 2
+
+    def same(j: int) -> bool:
+        u, v = (int(round(float(a))) for a in centre[j])
+        win = (slice(max(v - reach, 0), min(v + reach + 1, h)),
+               slice(max(u - reach, 0), min(u + reach + 1, w)))
+        a, b = frames[j][win].astype(np.float64), frames[j - 1][win].astype(np.float64)
+        return a.size > 0 and float(np.median(np.abs(a - b))) <= SAME_NOISE * max(noise, 0.5)
+
+    return same
 
 
 class FrameTiming(NamedTuple):
@@ -71,10 +98,12 @@ def _centre_sd(step: np.ndarray, stated: float) -> float:
     return stated
 
 
-def frame_timing(centre: np.ndarray, usable: np.ndarray, centre_sd: float) -> FrameTiming:
+def frame_timing(centre: np.ndarray, usable: np.ndarray, centre_sd: float,
+                 same: Callable[[int], bool] | None = None) -> FrameTiming:
     """The frames' timing (:class:`FrameTiming`) from the ball's centres ``(n, 2)`` (px) in
     the frames that are ``usable`` (found, not flagged), each with an SD of ``centre_sd``
-    px."""
+    px; ``same(j)``: whether frame ``j``'s picture is frame ``j - 1``'s again (asked only
+    where the ball did not move next to a bounce; None: not asked, such a frame not told)."""
     n = len(centre)
     lost, repeated = np.zeros(n, np.int64), np.zeros(n, bool)
     shift = np.zeros(n, np.int64)  # frames put in (a copy) before each frame: -1 from there
@@ -100,6 +129,11 @@ def frame_timing(centre: np.ndarray, usable: np.ndarray, centre_sd: float) -> Fr
             elif _agree(after, before, centre_sd):  # a copy put in
                 repeated[j], shift[j] = True, 1
             elif _agree(after, 2.0 * before, centre_sd):  # a copy in a lost frame's place
+                repeated[j] = True
+            elif same is not None and math.hypot(*after) >= least and same(j):
+                # the same picture next to a bounce: a copy, put in or in a lost frame's place,
+                # which the flights tell (lost_at_bounces); not a ball at rest in contact,
+                # whose frame's noise is its own
                 repeated[j] = True
             continue
         if not np.isfinite(after).all():
@@ -178,6 +212,7 @@ def lost_at_bounces(timing: FrameTiming, centre: np.ndarray, usable: np.ndarray,
     both sides. A 12 px ball rendered with a frame lost at its bounce: the rebound angle came
     out 0.18 deg (1.7 SE) off, with one more lost before it 0.44 deg (3.1 SE).
     """
+    usable = usable & ~timing.repeated
     idx = np.flatnonzero(usable)
     if len(idx) < 2 * MIN_FIT + 1:
         return timing
@@ -190,24 +225,31 @@ def lost_at_bounces(timing: FrameTiming, centre: np.ndarray, usable: np.ndarray,
     least = CLEAR * math.sqrt(2.0) * sd
     dh = np.diff(h) / np.maximum(np.diff(t), 1.0)  # a step a frame interval
     lost, at_bounce = timing.lost.copy(), timing.at_bounce.copy()
+    moved = np.zeros(len(centre), np.int64)  # each frame's place moved by, from there on
     # the lowest frames (the steps next to them may span the impact: clear one further out)
     low = 1 + np.flatnonzero((dh[:-1] < 0) & (dh[1:] >= 0))
     low = low[(low >= 2) & (low + 1 < len(dh))]
     for m in low[(dh[low - 2] <= -least) & (dh[low + 1] >= least)].tolist():
-        told = _bounce(_Flight(t, x, h), m, sd)
+        # a repeated picture between the flights (flagged, so not among them) may be a copy
+        # put in: then the later flight's places are one too many
+        copy = bool(timing.repeated[idx[m - 2]:idx[min(m + 2, len(idx) - 1)]].any())
+        told = _bounce(_Flight(t, x, h), m, sd, copy)
         if told is not None:
             first, k = told
-            lost[idx[first]] += k
-            at_bounce[idx[first]] = True
-    if np.array_equal(lost, timing.lost):
+            moved[idx[first]] += k
+            if k > 0:
+                lost[idx[first]] += k
+                at_bounce[idx[first]] = True
+    if not moved.any():
         return timing
-    place = timing.place + np.cumsum(lost - timing.lost)
+    place = timing.place + np.cumsum(moved)
     return FrameTiming(place, lost, timing.repeated, at_bounce)
 
 
-def _bounce(f: _Flight, m: int, sd: float) -> tuple[int, int] | None:
+def _bounce(f: _Flight, m: int, sd: float, copy: bool = False) -> tuple[int, int] | None:
     """The frames lost at the bounce whose lowest frame is ``m`` (of ``f``'s): the first frame
-    after them and how many, or None where none are told."""
+    after them and how many (-1: a copy was put in there, where ``copy`` says a repeated
+    picture lies between the flights), or None where none are told."""
     n = len(f.t)
     pre = _trimmed(f, np.arange(max(0, m - FIT_FRAMES), m), sd, last=True)
     post = _trimmed(f, np.arange(m + 1, min(n, m + 1 + FIT_FRAMES)), sd, last=False)
@@ -218,13 +260,15 @@ def _bounce(f: _Flight, m: int, sd: float) -> tuple[int, int] | None:
         pre = np.append(pre, m)
     elif post[0] == m + 1 and _follows(f, post, m, sd):
         post = np.insert(post, 0, m)
-    # (apart, slide, SE per sd) for k = 0, 1, ... lost; None: the flights do not cross
-    res = [_meeting(f, pre, post, k) for k in range(MAX_LOST + 1)]
-    fits = [r is not None and abs(r[0]) <= r[1] + MEET_SD * sd * r[2] for r in res]
-    if fits[0] or res[0] is None and res[1] is None or not any(fits[1:]):
+    # (apart, slide, SE per sd) for k = 0, 1, ... lost (-1: a copy put in); None: the flights
+    # do not cross in the gap
+    ks = range(-1 if copy else 0, MAX_LOST + 1)
+    res = {k: _meeting(f, pre, post, k) for k in ks}
+    fits = {k: r is not None and abs(r[0]) <= r[1] + MEET_SD * sd * r[2] for k, r in res.items()}
+    if fits[0] or res[0] is None and res[1] is None or not any(fits.values()):
         return None  # none lost, or the flights do not meet near the gap at all
-    apart = [math.inf if r is None else abs(r[0]) for r in res]
-    k = min((k for k in range(1, MAX_LOST + 1) if fits[k]), key=apart.__getitem__)
+    apart = {k: math.inf if r is None else abs(r[0]) for k, r in res.items()}
+    k = min((k for k in ks if fits[k]), key=apart.__getitem__)
     # the frames left out between the flights: later than their places from the first that
     # does not follow the flight before (in contact, or after the lost frames)
     between = [g for g in range(int(pre[-1]) + 1, int(post[0])) if not _follows(f, pre, g, sd)]

@@ -16,7 +16,7 @@ from ._edge import SMALL_BALL_FIT, RadiusFit, spread
 from ._camera import stabilise
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import edge_offset, fit_ball_radius, frame_quality
-from ._timing import FrameTiming, frame_timing, lost_at_bounces
+from ._timing import FrameTiming, frame_timing, lost_at_bounces, same_picture
 from ._tone import check_tone_curve, decode, decode_table
 
 TIMING_SD_PX = 0.2  # the centres' SD taken for the frames' timing where the edge model has none
@@ -327,9 +327,8 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     fitted = _fit_ball(frames, state, background is not None, centre, radius, method, flag,
                        config, noise)
     # lost and repeated frames, told by the ball's steps (the repeated ones flagged)
-    fit = fitted["radius_fit"]
-    timing = frame_timing(centre, (method != NOT_FOUND) & ~flag,
-                          fit.centre_sd if fit is not None else TIMING_SD_PX)
+    timing = _frame_timing(frames, centre, radius, (method != NOT_FOUND) & ~flag,
+                           fitted["radius_fit"], noise)
     flag = flag | timing.repeated
     for a in (centre, radius, method, contrast, residual, visible, flag, fitted["refined"],
               camera, turn, *timing):
@@ -338,6 +337,17 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
                  polarity="bright" if sign > 0 else "dark", noise=noise, threshold=threshold,
                  residual=residual, visible=visible, flag=flag, tone_curve=config.tone_curve,
                  camera_shift=camera, camera_turn=turn, timing=timing, **fitted)
+
+
+def _frame_timing(frames: np.ndarray, centre: np.ndarray, radius: np.ndarray,
+                  usable: np.ndarray, fit: RadiusFit | None, noise: float) -> FrameTiming:
+    """:func:`._timing.frame_timing` of the centres of the ``usable`` frames, with the edge
+    fits' SD, and the pixels about the ball (the edge model's radius, or the median found) to
+    tell a repeated picture by."""
+    found = radius[np.isfinite(radius)]
+    typical = fit.radius if fit is not None else float(np.median(found)) if found.size else 10.0
+    return frame_timing(centre, usable, fit.centre_sd if fit is not None else TIMING_SD_PX,
+                        same_picture(frames, centre, typical, noise))
 
 
 def timed_at_bounces(track: Track, along: np.ndarray, normal: np.ndarray) -> Track:
