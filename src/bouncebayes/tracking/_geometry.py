@@ -344,7 +344,8 @@ def _angle_sd(pts: np.ndarray, direction, point) -> float:
     least-squares error ``s / sqrt(sum (a - mean a)^2)`` (``a`` the position along the line,
     ``s`` the robust scatter across it, at least the 1/sqrt(12) px of integer pixel positions),
     with the pixels counted in runs of ``CORRELATION_PX`` (neighbouring edge pixels of Canny's
-    one-pixel-wide edges are not independent)."""
+    one-pixel-wide edges are not independent); or, where larger, the same from the median
+    offsets of ``BLOCKS`` stretches of the line (:func:`_block_sd`)."""
     d = pts - np.asarray(point, dtype=np.float32)
     along = d @ np.asarray(direction)
     across = d[:, 0] * direction[1] - d[:, 1] * direction[0]
@@ -353,10 +354,34 @@ def _angle_sd(pts: np.ndarray, direction, point) -> float:
     spread = float(np.sum((along - along.mean()) ** 2))
     if spread <= 0:
         return math.nan
-    return math.degrees(scatter / math.sqrt(spread) * math.sqrt(CORRELATION_PX))
+    return max(math.degrees(scatter / math.sqrt(spread) * math.sqrt(CORRELATION_PX)),
+               _block_sd(along, across))
 
 
 CORRELATION_PX = 4.0
+BLOCKS = 12  # stretches of the surface line whose offsets tell its wander
+
+
+def _block_sd(along: np.ndarray, across: np.ndarray) -> float:
+    """Standard error (deg) of a line's slope from the median offsets across it of ``BLOCKS``
+    equal stretches along it (at least 3 pixels each; 0 with under 5 stretches): a wall's
+    texture bends the edge's pixels over tens of pixels, alike within a stretch, which the
+    pixels' own scatter misses (rendered 320 x 160 clips, the surface at 1 degree, 30 walls:
+    z RMS 1.31, two beyond 3, with that alone; 0.88 and none with this)."""
+    cut = np.linspace(along.min(), along.max(), BLOCKS + 1)
+    block = np.clip(np.digitize(along, cut) - 1, 0, BLOCKS - 1)
+    a, r = [], []
+    for i in range(BLOCKS):
+        sel = block == i
+        if sel.sum() >= 3:
+            a.append(float(along[sel].mean()))
+            r.append(float(np.median(across[sel])))
+    if len(a) < 5:
+        return 0.0
+    am, rm = np.array(a) - np.mean(a), np.array(r)
+    slope = float(am @ (rm - rm.mean()) / (am @ am))
+    res = rm - rm.mean() - slope * am
+    return math.degrees(math.sqrt(float(res @ res) / (len(a) - 2) / float(am @ am)))
 
 
 class PlaneTrajectory(NamedTuple):

@@ -144,8 +144,32 @@ def frame_timing(centre: np.ndarray, usable: np.ndarray, centre_sd: float,
         m = round(float(here @ mean) / float(mean @ mean))
         if 2 <= m <= MAX_LOST + 1 and _agree(here, m * mean, centre_sd):
             lost[j] = m - 1
+    _lost_at_ends(step, size, lost, repeated, centre_sd, least)
     index = np.arange(n) + np.cumsum(lost) - np.cumsum(shift)
     return FrameTiming(index.astype(np.float64), lost, repeated, np.zeros(n, bool))
+
+
+def _lost_at_ends(step: np.ndarray, size: np.ndarray, lost: np.ndarray, repeated: np.ndarray,
+                  sd: float, least: float) -> None:
+    """Frames lost next to where the track starts or breaks off (the ball coming into view,
+    flagged frames), told into ``lost`` in place: there the step before (or after) the long
+    one is missing, and the two steps on its other side, which agree, take its place (a 12 px
+    ball cut by the frame's edge for its first 9 frames, a frame lost after them: not told,
+    the kinematics refused the flight)."""
+    n = len(lost)
+    j = np.arange(1, n - 2)
+    first = np.isnan(size[j - 1]) & (size[j + 1] >= least) & (size[j] >= 1.5 * size[j + 1])
+    last = np.isnan(size[j + 1]) & (size[j - 1] >= least) & (size[j] >= 1.5 * size[j - 1])
+    for k in j[first | last].tolist():
+        if lost[k] or repeated[k] or repeated[k - 1]:
+            continue
+        near, far = (step[k + 1], step[k + 2]) if np.isnan(size[k - 1]) else \
+            (step[k - 1], step[k - 2])
+        if not (np.isfinite(far).all() and _agree(near, far, sd)):
+            continue
+        m = round(float(step[k] @ near) / float(near @ near))
+        if 2 <= m <= MAX_LOST + 1 and _agree(step[k], m * near, sd):
+            lost[k] = m - 1
 
 
 def timing_message(timing: FrameTiming) -> str | None:
