@@ -179,6 +179,25 @@ def test_a_bounce_in_contact_for_frames_or_sliding_tells_nothing():
             assert np.array_equal(t.place[kept > 42], kept[kept > 42]), (tc, t1)
 
 
+@pytest.mark.parametrize("gone, unusable", [([9], range(0, 8)), ([49], range(51, 60))])
+def test_a_frame_lost_where_the_track_starts_or_breaks_off(gone, unusable):
+    # expected: the frame the test took out, next to frames the tracker could not use (the
+    # ball coming into view cut by the frame's edge, flagged): the step before (or after)
+    # the long one is missing, and the two on its other side tell; over 200 noisy clean
+    # flights with such breaks, nothing
+    c = flight()
+    kept = np.setdiff1d(np.arange(60), gone)
+    usable = ~np.isin(kept, list(unusable))
+    t = frame_timing(c[kept], usable, 0.03)
+    assert np.array_equal(t.place[usable], kept[usable])
+    assert t.lost.sum() == 1
+    for seed in range(200):
+        c = flight(seed=seed, noise=0.05, bounce_at=30)
+        usable = np.ones(60, bool)
+        usable[:5] = usable[40:43] = usable[56:] = False
+        assert not frame_timing(c, usable, 0.05).lost.any(), seed
+
+
 def test_a_copy_put_in_and_a_copy_in_a_lost_frames_place():
     c = flight()
     inserted = c[[*range(12), 11, *range(12, 60)]]  # frame 12 a copy of 11, put in
