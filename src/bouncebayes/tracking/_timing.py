@@ -227,14 +227,15 @@ def lost_at_bounces(timing: FrameTiming, centre: np.ndarray, usable: np.ndarray,
     ``normal``, image unit vectors), they cross at the impact, and there the ball's position
     along the surface is one, apart from how far it slid in contact (at most the change of its
     velocity along the surface times the longer part of the gap between the frames either
-    side that the crossing divides). With ``k``
-    frames lost at the bounce every frame after it is ``k`` intervals later than its place
-    says, and the flights so placed meet only where ``k`` is right (a ball 1.3 px a frame along
-    the surface: 1.3 px apart for each frame lost). Told where ``k = 0`` cannot be (the gap
-    beyond the slide by ``MEET_SD`` SEs) and some ``k`` up to ``MAX_LOST`` can; the one whose
-    flights meet closest. The ball must step ``CLEAR`` SDs a frame normal to the surface on
-    both sides. A 12 px ball rendered with a frame lost at its bounce: the rebound angle came
-    out 0.18 deg (1.7 SE) off, with one more lost before it 0.44 deg (3.1 SE).
+    side that the crossing divides). With ``k`` frames lost at the bounce every frame after
+    it is ``k`` intervals later than its place says, and the flights so placed meet only where
+    ``k`` is right (a ball 1.3 px a frame along the surface: 1.3 px apart for each frame
+    lost). Told where ``k = 0`` cannot be (the flights apart beyond the slide by ``MEET_SD``
+    SEs) and some ``k`` up to ``MAX_LOST`` can, the one whose flights meet closest; ``k =
+    -1`` (a copy put in) too where a repeated picture lies between the flights. The ball must
+    step ``CLEAR`` SDs a frame normal to the surface on both sides. A 12 px ball rendered with
+    a frame lost at its bounce: the rebound angle came out 0.18 deg (1.7 SE) off, with one
+    more lost before it 0.44 deg (3.1 SE).
     """
     usable = usable & ~timing.repeated
     idx = np.flatnonzero(usable)
@@ -312,22 +313,25 @@ def _trimmed(f: _Flight, sel: np.ndarray, sd: float, last: bool) -> np.ndarray |
     return None
 
 
+def _misfit_limit(f: _Flight, sel: np.ndarray, sd: float) -> float:
+    """How far (px) a frame may lie off the flight of the frames ``sel``: ``MISFIT_SD`` SDs
+    plus 5 % of the ball's step a frame."""
+    step = math.hypot(np.ptp(f.x[sel]), np.ptp(f.h[sel])) / max(np.ptp(f.t[sel]), 1.0)
+    return MISFIT_SD * sd + 0.05 * step
+
+
 def _fits_flight(f: _Flight, sel: np.ndarray, sd: float) -> bool:
-    """Whether the frames ``sel`` lie on one parabola (``MISFIT_SD``)."""
-    t = f.t[sel] - f.t[sel].mean()
-    step = math.hypot(np.ptp(f.x[sel]), np.ptp(f.h[sel])) / max(np.ptp(t), 1.0)
-    limit = MISFIT_SD * sd + 0.05 * step
+    """Whether the frames ``sel`` lie on one parabola (:func:`_misfit_limit`)."""
+    t, limit = f.t[sel] - f.t[sel].mean(), _misfit_limit(f, sel, sd)
     return all(np.abs(v - np.polyval(np.polyfit(t, v, 2), t)).max() <= limit
                for v in (f.x[sel], f.h[sel]))
 
 
 def _follows(f: _Flight, sel: np.ndarray, m: int, sd: float) -> bool:
-    """Whether frame ``m`` follows the flight of the frames ``sel`` (``MISFIT_SD``)."""
-    t0 = f.t[sel].mean()
-    t = f.t[sel] - t0
-    step = math.hypot(np.ptp(f.x[sel]), np.ptp(f.h[sel])) / max(np.ptp(t), 1.0)
-    return all(abs(np.polyval(np.polyfit(t, v[sel], 2), f.t[m] - t0) - v[m])
-               <= MISFIT_SD * sd + 0.05 * step for v in (f.x, f.h))
+    """Whether frame ``m`` follows the flight of the frames ``sel`` (:func:`_misfit_limit`)."""
+    t0, limit = f.t[sel].mean(), _misfit_limit(f, sel, sd)
+    return all(abs(np.polyval(np.polyfit(f.t[sel] - t0, v[sel], 2), f.t[m] - t0) - v[m])
+               <= limit for v in (f.x, f.h))
 
 
 def _meeting(f: _Flight, pre: np.ndarray, post: np.ndarray, k: int
@@ -340,11 +344,13 @@ def _meeting(f: _Flight, pre: np.ndarray, post: np.ndarray, k: int
     tp, tq = f.t[pre] - t0, f.t[post] + k - t0
     ap, aq = _projector(tp), _projector(tq)  # a parabola's coefficients: A @ values
     hp, hq, xp, xq = ap @ f.h[pre], aq @ f.h[post], ap @ f.x[pre], aq @ f.x[post]
-    roots = np.roots(hp - hq) if np.any(hp != hq) else np.zeros(0)
     gap = tq[0]  # the last frame before at 0
+    if gap <= 0:
+        return None
+    roots = np.roots(hp - hq) if np.any(hp != hq) else np.zeros(0)
     roots = roots[np.isreal(roots)].real
     roots = roots[(roots >= -0.5) & (roots <= gap + 0.5)]
-    if not roots.size or gap <= 0:
+    if not roots.size:
         return None
     r = float(roots[np.argmin(np.abs(roots - 0.5 * gap))])
     phi, dphi = np.array([r * r, r, 1.0]), np.array([2 * r, 1.0, 0.0])

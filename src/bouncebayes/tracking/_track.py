@@ -107,9 +107,9 @@ class Track:
     (:mod:`._camera`; zeros where it did not move, and the centres are in the background's
     pixels); ``camera_turn`` ``(n, 2)``: how far it had turned (degrees, about the frame's
     centre) and zoomed (the field of view wider by, a fraction), moved back likewise
-    (:func:`._camera.turn_and_zoom`). ``timing``: each frame's place in the camera's sequence where frames were lost
-    or repeated (:mod:`._timing`; the repeated frames are flagged; None: every frame at
-    ``k / fps``, as a track made before).
+    (:func:`._camera.turn_and_zoom`). ``timing``: each frame's place in the camera's sequence
+    where frames were lost or repeated (:mod:`._timing`; the repeated frames are flagged;
+    None: every frame at ``k / fps``, as a track made before).
     """
 
     centre: np.ndarray
