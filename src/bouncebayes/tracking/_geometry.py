@@ -374,8 +374,8 @@ def _subpixel(line: Surface, img: np.ndarray, lo: float, hi: float) -> Surface |
     if keep.sum() < 20:
         return None
     # the slope's peak to a fraction of a sample: the vertex of the parabola through three
+    y0, y1, y2, at = y0[keep], y1[keep], y2[keep], at[keep]
     edge = s[at] + 0.25 * 0.5 * (y0 - y2) / (y0 - 2 * y1 + y2)
-    edge = edge[keep]
     pts = np.column_stack([a[keep], edge]).astype(np.float32)
     ex, ey, ox, oy = cv2.fitLine(pts, cv2.DIST_HUBER, 0, 0.01, 0.01).ravel()
     # back to the image: along the line ``a`` and across it ``s`` (normal (-dy, dx))
