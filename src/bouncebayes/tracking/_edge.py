@@ -316,10 +316,13 @@ def depth_told(fit: RadiusFit | None) -> float:
     """The change of :func:`depth_change` where it is ``DEPTH_WARNING`` or more and
     ``DEPTH_SD`` SEs (the ball moves along the camera's axis), else 0."""
     change = None if fit is None else depth_change(fit.frames, fit.radii)
-    if change is None:
-        return 0.0
-    grow, se = change
-    return grow if abs(grow) >= max(DEPTH_WARNING, DEPTH_SD * se) else 0.0
+    return change[0] if change is not None and depth_is_told(change) else 0.0
+
+
+def depth_is_told(change: tuple[float, float] | None) -> bool:
+    """Whether :func:`depth_change`'s ``(change, SE)`` is ``DEPTH_WARNING`` or more and
+    ``DEPTH_SD`` SEs."""
+    return change is not None and abs(change[0]) >= max(DEPTH_WARNING, DEPTH_SD * change[1])
 
 
 def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None,

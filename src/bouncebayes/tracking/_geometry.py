@@ -332,19 +332,23 @@ def _refined(segment, edges: np.ndarray, img: np.ndarray | None = None) -> Surfa
         if np.array_equal(again, near) or again.sum() < 2:
             break
         near = again
-    coarse = Surface(point=(float(px), float(py)), direction=(float(dx), float(dy)),
-                     source="detected", angle_sd_deg=_angle_sd(pts, (dx, dy), (px, py)))
-    if img is None:
-        return coarse
-    along = (pts - np.array([px, py], np.float32)) @ np.array([dx, dy], np.float32)
-    return _subpixel(coarse, img, float(along.min()), float(along.max())) or coarse
+    point, direction = (float(px), float(py)), (float(dx), float(dy))
+    if img is not None:
+        along = (pts - np.array([px, py], np.float32)) @ np.array([dx, dy], np.float32)
+        fine = _subpixel(point, direction, img, float(along.min()), float(along.max()))
+        if fine is not None:
+            return fine
+    return Surface(point=point, direction=direction, source="detected",
+                   angle_sd_deg=_angle_sd(pts, (dx, dy), (px, py)))
 
 
 SUBPIXEL_REACH = 2.5  # px either side of the line the image is read across it
 
 
-def _subpixel(line: Surface, img: np.ndarray, lo: float, hi: float) -> Surface | None:
-    """``line`` fitted again to the edge's sub-pixel positions: at every pixel along it from
+def _subpixel(point: tuple[float, float], direction: tuple[float, float], img: np.ndarray,
+              lo: float, hi: float) -> Surface | None:
+    """The line through ``point`` along ``direction`` (a unit vector) fitted again to the
+    edge's sub-pixel positions: at every pixel along it from
     ``lo`` to ``hi`` (px from its point), the image (smoothed by 1 px) read across it out to
     ``SUBPIXEL_REACH`` px (in quarter pixels, cubic splines: read bilinearly the slope is
     flat between pixels and its peak locks to them), and the peak of its slope, to a fraction of a
@@ -357,7 +361,7 @@ def _subpixel(line: Surface, img: np.ndarray, lo: float, hi: float) -> Surface |
     from scipy import ndimage
 
     smooth = cv2.GaussianBlur(img.astype(np.float32), (0, 0), 1.0)
-    (px, py), (dx, dy) = line.point, line.direction
+    (px, py), (dx, dy) = point, direction
     a = np.arange(math.ceil(lo), math.floor(hi) + 1, dtype=np.float64)
     s = np.arange(-SUBPIXEL_REACH, SUBPIXEL_REACH + 0.25, 0.25)
     u = px + a[:, None] * dx - s[None, :] * dy  # normal (-dy, dx)

@@ -233,9 +233,10 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
         background = _background_file(background, source)
     config = config or TrackerConfig()
     video = _tracked(source, config, ball_diameter, reference, surface, background, readout)
-    bent = video.lens
+    # the surface edge's bow, read once: on the frames as they are
+    bent = surface_bend(video.track.background, video.surface.point, video.surface.direction)
     if lens == "none" or bent is None or not bent.significant:
-        return video
+        return dataclasses.replace(video, lens=bent)
     # a lens that bends lines: the frames, and what was given in their pixels, undistorted
     lam, shape = bent.lam, source.frames.shape[1:]
     frames = undistort(source.frames, lam)
@@ -258,7 +259,7 @@ LENS_MODES = ("auto", "none")
 
 def _tracked(source: VideoSource, config: TrackerConfig, ball_diameter, reference,
              surface: Surface | None, background, readout: float) -> TrackedVideo:
-    """:func:`track_video` on the frames of ``source`` as they are."""
+    """:func:`track_video` on the frames of ``source`` as they are (the lens not read)."""
     track = track_ball(source.frames, config=config, background=background)
     n_found = int(track.found.sum())
     if n_found < 3:
@@ -282,8 +283,7 @@ def _tracked(source: VideoSource, config: TrackerConfig, ball_diameter, referenc
     track = timed_at_bounces(track, *plane_axes(track, surface))
     trajectory = to_plane_frame(track, calibration, surface, source.fps, readout)
     return TrackedVideo(source=source, track=track, calibration=calibration, surface=surface,
-                        trajectory=trajectory,
-                        lens=surface_bend(track.background, surface.point, surface.direction))
+                        trajectory=trajectory)
 
 
 def _background_file(path: str | os.PathLike, source: VideoSource) -> np.ndarray:
@@ -367,14 +367,13 @@ def depth_warning(track: Track) -> str | None:
     """In words, where the ball's picture grows or shrinks over the frames (it moves along
     the camera's axis: :func:`._edge.depth_told`) and what that does; None where it does not
     clearly."""
-    from ._edge import depth_change, depth_told
+    from ._edge import depth_change, depth_is_told
 
     fit = track.radius_fit
-    grow = depth_told(fit)
-    change = depth_change(fit.frames, fit.radii) if fit is not None and grow else None
-    if fit is None or change is None:
+    change = None if fit is None else depth_change(fit.frames, fit.radii)
+    if fit is None or change is None or not depth_is_told(change):
         return None
-    se = change[1]
+    grow, se = change
     way = "grows" if grow > 0 else "shrinks"
     towards = "towards" if grow > 0 else "away from"
     return (f"the ball's picture {way} by {100 * abs(grow):.1f} +- {100 * se:.1f} % from frame "

@@ -85,6 +85,15 @@ def _agree(a: np.ndarray, b: np.ndarray, sd: float) -> bool:
     return math.hypot(*(a - b)) <= AGREE_REL * size + AGREE_SD * math.sqrt(2.0) * sd
 
 
+def _steps(centre: np.ndarray, usable: np.ndarray) -> np.ndarray:
+    """The ball's step (px, ``(n, 2)``) into each frame from the one before, NaN where either
+    is not ``usable`` (and into the first)."""
+    step = np.full((len(centre), 2), np.nan)
+    ok = usable[1:] & usable[:-1]
+    step[1:][ok] = centre[1:][ok] - centre[:-1][ok]
+    return step
+
+
 def _centre_sd(step: np.ndarray, stated: float) -> float:
     """The centres' SD (px): the ``stated`` one, or as their second differences scatter (a
     flight's change of step is a few per cent of it; bounces, lost frames: a median leaves
@@ -107,10 +116,7 @@ def frame_timing(centre: np.ndarray, usable: np.ndarray, centre_sd: float,
     n = len(centre)
     lost, repeated = np.zeros(n, np.int64), np.zeros(n, bool)
     shift = np.zeros(n, np.int64)  # frames put in (a copy) before each frame: -1 from there
-    step = np.full((n, 2), np.nan)
-    ok = usable[1:] & usable[:-1]
-    step[1:][ok] = centre[1:][ok] - centre[:-1][ok]  # step[j]: from frame j - 1 to frame j
-    step = np.vstack([step, np.full((1, 2), np.nan)])  # no step after the last frame
+    step = np.vstack([_steps(centre, usable), np.full((1, 2), np.nan)])  # none after the last
     centre_sd = _centre_sd(step, centre_sd)
     least = max(MIN_STEP_PX, CLEAR * math.sqrt(2.0) * centre_sd)
     # the frames worth a look, at once (a loop over every frame cost 18 us a frame): the step
@@ -243,10 +249,7 @@ def lost_at_bounces(timing: FrameTiming, centre: np.ndarray, usable: np.ndarray,
         return timing
     t, pos = timing.place[idx], centre[idx]
     x, h = pos @ np.asarray(along, float), pos @ np.asarray(normal, float)
-    steps = np.full((len(centre), 2), np.nan)
-    ok = usable[1:] & usable[:-1]
-    steps[1:][ok] = (centre[1:] - centre[:-1])[ok]
-    sd = _centre_sd(steps, centre_sd)
+    sd = _centre_sd(_steps(centre, usable), centre_sd)
     least = CLEAR * math.sqrt(2.0) * sd
     dh = np.diff(h) / np.maximum(np.diff(t), 1.0)  # a step a frame interval
     lost, at_bounce = timing.lost.copy(), timing.at_bounce.copy()

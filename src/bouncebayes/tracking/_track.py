@@ -346,8 +346,13 @@ def _frame_timing(frames: np.ndarray, centre: np.ndarray, radius: np.ndarray,
     tell a repeated picture by."""
     found = radius[np.isfinite(radius)]
     typical = fit.radius if fit is not None else float(np.median(found)) if found.size else 10.0
-    return frame_timing(centre, usable, fit.centre_sd if fit is not None else TIMING_SD_PX,
-                        same_picture(frames, centre, typical, noise))
+    return frame_timing(centre, usable, _timing_sd(fit), same_picture(frames, centre, typical,
+                                                                      noise))
+
+
+def _timing_sd(fit: RadiusFit | None) -> float:
+    """The centres' SD (px) the frames' timing takes: the edge fits', else ``TIMING_SD_PX``."""
+    return fit.centre_sd if fit is not None else TIMING_SD_PX
 
 
 def timed_at_bounces(track: Track, along: np.ndarray, normal: np.ndarray) -> Track:
@@ -355,9 +360,8 @@ def timed_at_bounces(track: Track, along: np.ndarray, normal: np.ndarray) -> Tra
     ``along`` and ``normal``: image unit vectors along the surface and normal to it)."""
     if track.timing is None:
         return track
-    fit = track.radius_fit
     timing = lost_at_bounces(track.timing, track.centre, track.found & ~track.flag, along,
-                             normal, fit.centre_sd if fit is not None else TIMING_SD_PX)
+                             normal, _timing_sd(track.radius_fit))
     if timing is track.timing:
         return track
     for a in timing:
