@@ -95,6 +95,11 @@ def test_report_is_self_contained_and_complete(small_run):
                  "Standardised residuals", "not dropped", "DEM-ready quantities",
                  "Where these transfer", "linear normal stiffness"):
         assert text in page, text
+    # the subtitle says what this report fitted, not only the experiment file's own words
+    # (the same whatever trial table the file is run on): the trial table's data rows
+    rows = [ln for ln in (small_run.folder / "trials.csv").read_text().splitlines()
+            if ln.strip() and not ln.startswith("#")][1:]
+    assert f"This report: {len(rows)} trials from " in page
 
 
 def test_report_command_rebuilds_from_the_files(small_run, tmp_path):

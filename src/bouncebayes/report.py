@@ -578,13 +578,24 @@ def _provenance_section(result: InferenceResult, provenance: dict | None) -> lis
         f"<pre>{html.escape(Path(e.source).read_text(encoding='utf-8'))}</pre>"]
 
 
+def _subtitle(result: InferenceResult) -> str:
+    """The experiment file's description and what this report fitted: the experiment file's
+    words are the same whatever trial table it is run on, so the count and table are said."""
+    t = result.trials
+    fitted = f"This report: {t.n} trial{'s' if t.n != 1 else ''} from {Path(t.source).name}."
+    desc = result.experiment.description.strip()
+    if desc and desc[-1] not in ".!?":
+        desc += "."
+    return f"{desc} {fitted}" if desc else fitted
+
+
 def render_report(result: InferenceResult, prop_summary: dict, figures, folder: str | Path,
                   truth: dict | None = None, provenance: dict | None = None) -> Path:
     """Write ``folder/report.html``: one file, figures embedded, opens offline. ``provenance``:
     the run's record (:func:`bouncebayes._provenance.provenance`), made here if not given."""
     e = result.experiment
     sections = [f"<h1>bouncebayes report: {html.escape(e.name)}</h1>",
-                f"<p class='meta'>{html.escape(e.description)}</p>",
+                f"<p class='meta'>{html.escape(_subtitle(result))}</p>",
                 *_result_section(result, truth), *_population_section(result),
                 *_experiment_section(result),
                 *_tracking_section(folder),

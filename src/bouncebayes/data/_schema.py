@@ -49,7 +49,7 @@ INFERENCE_CHOICES: dict[str, tuple[str, ...]] = {
 SECTIONS: dict[str, dict[str, Key]] = {
     "experiment": {
         "name": Key(str, "a short name shown in reports", default="experiment"),
-        "description": Key(str, "free text shown in reports", default=""),
+        "description": Key(str, "free text shown in reports (beside the count of trials fitted)", default=""),
     },
     "ball": {
         "diameter_m": _pos("ball diameter (give this or radius_m)", "m", OPTIONAL),
