@@ -888,6 +888,26 @@ def test_the_scale_comes_from_the_balls_edge(radius, sigma, exposure, light, lim
     assert 0.6 * true_sd <= track.radius_fit.centre_sd <= 2.2 * true_sd
 
 
+def test_a_small_glossy_balls_scale_under_a_blur_states_what_the_shading_can_do():
+    from render_pbr import render
+
+    from bouncebayes.tracking import radius_warning
+
+    # expected: the renderer's radius (5 px). A glossy ball (limb darkening 0.5, a saturating
+    # Blinn-Phong highlight) blurred by 1.2 px, a quarter of its radius: the shading near the
+    # rim trades against the radius (measured 4.01 px, -19.8 %, the small-ball fit's fitted
+    # blur 1.44 px; with the renderer's true blur held, -6 to -12 % on such scenes). Before the
+    # blurred small-ball term (_edge.SMALL_FIT_BLURRED_REL) the stated SD was 7.4 % (z -2.7);
+    # now 12.5 % (z -1.6), with the warning to give a reference length
+    shot = pbr_shot(5.0, 1.2, 0.0, specular=1.2, shininess=30.0, limb_u=0.5, seed=0)
+    track = track_ball(render(shot))
+    cal = Calibration.from_track(shot.diameter_m, track)
+    err = track.ball_radius / 5.0 - 1.0
+    assert track.radius_fit.method == "small-ball fit"
+    assert abs(err) <= 2.0 * cal.relative_sd
+    assert cal.relative_sd > 0.10 and "reference" in radius_warning(track)
+
+
 def test_the_balls_shadow_on_the_wall_is_left_out_and_said():
     from render_pbr import Shot, Throw, render
 
@@ -1303,6 +1323,23 @@ def test_the_scales_uncertainty_follows_what_measured_the_radius():
     assert small.relative_sd == pytest.approx(
         math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * 0.6**3) / 5.0)
     assert small.metres_per_px == edge.metres_per_px == pytest.approx(0.0256 / 10.0)
+    # the small-ball fit under a blur that is a large part of the radius: SMALL_FIT_BLURRED_REL
+    # of it more, ramped over SMALL_FIT_BLURRED_FROM..TO of the radius (half-way: half of it)
+    from bouncebayes.tracking._edge import (
+        SMALL_FIT_BLURRED_FROM,
+        SMALL_FIT_BLURRED_REL,
+        SMALL_FIT_BLURRED_TO,
+    )
+
+    half = 5.0 * 0.5 * (SMALL_FIT_BLURRED_FROM + SMALL_FIT_BLURRED_TO)
+    blurred = Calibration.from_ball_diameter(0.0256, 5.0, 0.03, half, "small-ball fit")
+    assert blurred.relative_sd == pytest.approx(math.hypot(
+        math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * half**3) / 5.0,
+        0.5 * SMALL_FIT_BLURRED_REL))
+    beyond = Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 1.5, "small-ball fit")
+    assert beyond.relative_sd == pytest.approx(math.hypot(
+        math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * 1.5**3) / 5.0,
+        SMALL_FIT_BLURRED_REL))
     with pytest.raises(ValueError, match=r"`method` must be one of 'edge model', 'small-ball "
                                          r"fit'; got 'coverage'"):
         Calibration.from_ball_diameter(0.0256, 5.0, 0.03, 0.6, "coverage")

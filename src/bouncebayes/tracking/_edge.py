@@ -197,6 +197,17 @@ EDGE_MODEL, SMALL_BALL_FIT = "edge model", "small-ball fit"  # RadiusFit.method
 # quadrature, the edge model's blur term BLUR_PX3 * sigma^3: under a 1.5 px blur (fitted
 # 1.46-1.75 px) the radius came out -3.9 to +1.1 %, a glossy ball's -8 to -15 % (z <= 1.6)
 SMALL_FIT_SYSTEMATIC_PX = 0.13
+# ... and, in quadrature, SMALL_FIT_BLURRED_REL of the radius ramped from a fitted blur of
+# SMALL_FIT_BLURRED_FROM of the radius (none) to SMALL_FIT_BLURRED_TO (full). The terms above
+# were set on blurs of 0, 0.7 and 1.5 px; between them (2026-11-29: radius 5, 6.5 and 8 px,
+# blur 0.7-1.5 px in six steps, exposure 0 and 80 %, two seeds, side-lit and glossy balls,
+# tests/render_pbr.py) the radius came out within 2.4 % up to a fitted blur of 0.19 of it and
+# -22 to +9 % beyond (a glossy 5 px ball blurred by 1-1.2 px: -7 to -22 %, z down to -3.4; its
+# fitted blur 0.21-0.30 of the radius), where the shading near the rim and the blur trade
+# against the radius even with the true blur held (-6 to -12 % at 1.2 px). With this term
+# those scenes' |z| <= 1.9 (docs/tracking.md §3)
+SMALL_FIT_BLURRED_REL = 0.10
+SMALL_FIT_BLURRED_FROM, SMALL_FIT_BLURRED_TO = 0.17, 0.25
 # fitted sigma / r up to which the small-ball fit (._refine) runs: at 5 px under a 1.5 px blur
 # (fitted 0.29-0.35 of the true radius) its centres were 0.10-0.19 px against the centroids'
 # 0.12-0.68 and its radius -3.9..+1.1 % (glossy -8.3) against -3.2..+2.1 % (glossy -14.0)
@@ -269,6 +280,14 @@ def compression_px(jpeg_quality: float | None, bits_per_pixel: float | None = No
     return float(np.interp(math.log(bits_per_pixel), np.log(CODEC_BITS), CODEC_PX))
 
 
+def small_fit_blurred_px(radius_px: float, blur_px: float) -> float:
+    """The small-ball fit's radius error (px) where its blur is a large part of the radius:
+    ``SMALL_FIT_BLURRED_REL`` of the radius, ramped linearly from a fitted blur of
+    ``SMALL_FIT_BLURRED_FROM`` of the radius (zero) to ``SMALL_FIT_BLURRED_TO`` (full)."""
+    return SMALL_FIT_BLURRED_REL * radius_px * _ramp(
+        blur_px / radius_px, SMALL_FIT_BLURRED_FROM, SMALL_FIT_BLURRED_TO)
+
+
 def edge_model_systematic_px(radius_px: float, blur_px: float | None) -> float:
     """The edge model's systematic radius error (px) for a fitted blur ``blur_px``: the sum
     of ``SYSTEMATIC_PX``, the blur term ``BLUR_PX3 blur^3`` and the small-ball term
@@ -332,14 +351,16 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
     """The relative standard deviation of the ball's radius: its scatter across frames
     ``radius_se_px`` and the systematic error in quadrature: the edge model's
     (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` and the blur term
-    ``BLUR_PX3 * blur_px^3`` in quadrature where ``method`` is ``SMALL_BALL_FIT``; the
+    ``BLUR_PX3 * blur_px^3`` and :func:`small_fit_blurred_px` in quadrature where ``method``
+    is ``SMALL_BALL_FIT``; the
     frames' compression (:func:`compression_px`: their JPEG quality, or the video's bits per
     pixel); ``FOREIGN_REL_SD`` where ``foreign`` (the fraction of the frames fitted with
     sides of the rim left out, ``RadiusFit.foreign``) is ``FOREIGN_WARNING`` or more; and half
     of ``depth``, the ball's picture's change over the frames (:func:`depth_told`: the median
     radius is the ball's at one distance only)."""
     blur = 0.0 if blur_px is None else blur_px
-    systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3) \
+    systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3,
+                            small_fit_blurred_px(radius_px, blur)) \
         if method == SMALL_BALL_FIT else edge_model_systematic_px(radius_px, blur_px)
     compression = compression_px(jpeg_quality, bits_per_pixel)
     shadow = FOREIGN_REL_SD if foreign >= FOREIGN_WARNING else 0.0
