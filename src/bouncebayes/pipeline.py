@@ -111,7 +111,8 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
     with an overlay image per video in ``stage/tracking``; unusable videos are listed.
     ``video``: ``fps``, ``surface`` (``"X1,Y1,X2,Y2"`` or None: detected), ``tone_curve`` and
     ``readout``, as :func:`run`."""
-    from .tracking import (Surface, TrackerConfig, camera_message, tone_curve_label, track_video,
+    from .tracking import (Surface, TrackerConfig, camera_message, cast_message,
+                           tone_curve_label, track_video,
                            write_track_files)
 
     fps = video["fps"]
@@ -139,7 +140,8 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
                                             "tone_curve": tone_curve_label(config.tone_curve),
                                             "readout_s": video.get("readout", 0.0),
                                             "background": "per-pixel median of frames"})
-        for note in (camera_message(tracked_video.track), tracked_video.source.channel_note):
+        for note in (camera_message(tracked_video.track), cast_message(tracked_video.track),
+                     tracked_video.source.channel_note):
             if note:  # each video's own
                 log(f"  note: {path.name}: {note}")
         for kind, warning in _warnings(tracked_video, files["record"]).items():

@@ -520,7 +520,8 @@ def _tracking_section(folder: str | Path) -> list[str]:
                             (r.get("lens") or {}).get("warning"), r["ball"].get("depth_warning"),
                             None if fall is None or fall["agrees"] else fall["summary"],
                             f"the camera moved by up to {moved:.2g} px (the frames moved back)"
-                            if moved else None, r.get("channel_note")) if w]
+                            if moved else None, r.get("channel_note"),
+                            (r["ball"].get("cast_shadow") or {}).get("note")) if w]
         rows.append([path.name.removesuffix(".track.json"),
                      f"{q['found']} of {r['frames']} ({q['flagged']} flagged)",
                      f"{r['ball']['radius_px']:.3g}",

@@ -225,7 +225,8 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
     """What was found in one video, and where it went (and a warning where the scale comes
     from the ball's radius and that is unreliable or uncertain, and where the frames are
     strongly compressed); ``gravity``: the flights' fall against the scale, in words."""
-    from ..tracking import (EDGE_FIT, camera_message, compression_warning, depth_warning,
+    from ..tracking import (EDGE_FIT, camera_message, cast_message, compression_warning,
+                            depth_warning,
                             lens_warning, radius_warning, timing_warning, tone_curve_warning)
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
@@ -247,5 +248,6 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
             + (f"\n  warning: {lens}" if (lens := lens_warning(result)) else "")
             + (f"\n  warning: {depth}" if (depth := depth_warning(tr)) else "")
             + (f"\n  {camera}" if (camera := camera_message(tr)) else "")
+            + (f"\n  {cast}" if (cast := cast_message(tr)) else "")
             + (f"\n  colour: {src.channel_note}" if src.channel_note else "")
             + (f"\n  {gravity}" if gravity else ""))

@@ -72,6 +72,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ._cast import CastShadow, at_centres, find_cast, painted
+
 RIM_ORDER = 4      # harmonics of the rim level in the polar angle
 INNER = 0.3        # pixels deeper than INNER r inside the rim are not fitted (beyond 2.5 blurs)
 MAX_FRAMES = 9     # frames fitted per video (blur and exposure held)
@@ -392,6 +394,7 @@ class RadiusFit(NamedTuple):
     # model's in some of its sectors (left out of the fits: foreign_fraction)
     foreign: float = 0.0
     radii: tuple[float, ...] = ()  # each of ``frames``' own radius, the blur and light held
+    cast: CastShadow | None = None  # the ball's shadow on the wall where it hugs the edge
 
 
 def foreign_fraction(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
@@ -1399,6 +1402,35 @@ def _shared(args: list[tuple[np.ndarray, np.ndarray, Any, Any]],
             float(np.median([f.r for f in agree])))
 
 
+def _free_fits(args: Sequence[tuple[Any, Any, Any, Any]], r0: float, kappa: np.ndarray | None, noise: float | None
+               ) -> tuple[dict[int, EdgeFit | None], float]:
+    """The free fits (all seven parameters, most of the cost) on up to ``FIRST_FRAMES`` of the
+    frames ``args``, spread: they only set the shared blur, exposure, light and the starting
+    radius; and how far beyond the rim the free fits to come read (px). Where they misfit (a
+    shadow beside the ball merged with it: ``MISFIT``) from other starts (:func:`_restarted`),
+    and the fits to come read less of the wall (``RESTART_REACH``)."""
+    first = {int(i): fit_edge(*args[int(i)], r0, kappa=kappa)
+             for i in spread(len(args), FIRST_FRAMES)}
+    ok = [f for f in first.values() if f is not None]
+    if noise is not None and len(ok) >= 3 and np.median([f.rms for f in ok]) > MISFIT * noise:
+        return {i: _restarted(*args[i], r0, f, kappa) for i, f in first.items()}, RESTART_REACH
+    return first, START_REACH
+
+
+def _held_cast(args, found: tuple[CastShadow, dict[int, np.ndarray], float],
+               first: dict[int, EdgeFit | None], kappa: np.ndarray | None, reach: float
+               ) -> tuple[CastShadow, list, np.ndarray, float, dict[int, EdgeFit | None]]:
+    """Where the ball's shadow hugs its edge (``found``, :func:`._cast.find_cast`): the shadow,
+    the frames ``args`` at the centres found with it (backgrounds as given) and how far they
+    moved (px), the radius found with it, and the free fits again with the shadow painted into
+    every background, from that radius (a dark ball's coverage took the shadow in: +26 %)."""
+    cast, at, r0 = found
+    plain, moved = at_centres(args, at)
+    shaded = painted(plain, cast)
+    again = {i: fit_edge(*shaded[i], r0, kappa=kappa, reach=reach) for i in first}
+    return cast, plain, moved, r0, again
+
+
 def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
                centres: np.ndarray, velocities: np.ndarray, gains: Sequence[float], r0: float,
                more: Callable[[], _FrameInputs] | None = None,
@@ -1422,27 +1454,27 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     fitted again from other starts, :func:`_restarted`). None if fewer than 3 frames could be
     fitted."""
     args, gain = list(zip(frames, backgrounds, centres, velocities, strict=True)), list(gains)
-    # the free fits (all seven parameters, most of the cost) on up to FIRST_FRAMES of the
-    # frames, spread: they only set the shared blur, exposure, light and the starting radius
-    first = {int(i): fit_edge(*args[int(i)], r0, kappa=kappa)
-             for i in spread(len(args), FIRST_FRAMES)}
+    first, reach = _free_fits(args, r0, kappa, noise)
     ok = [f for f in first.values() if f is not None]
-    reach = START_REACH
-    if noise is not None and len(ok) >= 3 and np.median([f.rms for f in ok]) > MISFIT * noise:
-        # the fits misfit (a shadow beside the ball merged with it): other starts, and the
-        # free fits to come read less of the wall
-        first = {i: _restarted(*args[i], r0, f, kappa) for i, f in first.items()}
-        ok, reach = [f for f in first.values() if f is not None], RESTART_REACH
     if len(ok) < 3:
         return None
+    # ``plain``: the frames with their centres as moved, the backgrounds as given; ``moved``:
+    # how far every centre was moved (px), which the frames to come are moved by too
+    plain, cast, moved = args, None, np.zeros(2)
+    if (found := find_cast(args, first)) is not None:
+        cast, plain, moved, r0, first = _held_cast(args, found, first, kappa, reach)
+        args, ok = painted(plain, cast), [f for f in first.values() if f is not None]
+        if len(ok) < 3:
+            return None
     shift = _centroid_shift(args, first)
     if shift is not None:  # the centroids are off alike: every frame from its centroid moved
-        args, r0 = _moved(args, shift), float(np.median([f.r for f in ok]))
+        plain, moved = _moved(plain, shift), moved + shift
+        args, r0 = painted(plain, cast), float(np.median([f.r for f in ok]))
     blur = float(np.median([f.sigma for f in ok]) / np.median([f.r for f in ok]))
     if more is not None and BLURRED <= blur <= MORE_FRAMES_MAX_BLUR:
         # blurred for its size: the blur the fits hold sets the radius; more frames for it
         *inputs, extra_gains = more()
-        extra, n = _moved(zip(*inputs, strict=True), shift), len(args)
+        extra, n = painted(_moved(zip(*inputs, strict=True), moved), cast), len(args)
         args, gain = args + extra, gain + list(extra_gains)
         for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
             first[int(i)] = fit_edge(*args[int(i)], r0, kappa=kappa, reach=reach)
@@ -1461,5 +1493,6 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
             med, centres = joint.radius, joint.centres
             held = (joint.sigma, held[1], *joint.light)
     return RadiusFit(med, se, held[0], held[1], float(np.median([f.rms for f in fits])),
-                     tuple(used), centres, light=held[2:], radii=tuple(f.r for f in fits))
+                     tuple(used), centres, light=held[2:], radii=tuple(f.r for f in fits),
+                     cast=cast)
 

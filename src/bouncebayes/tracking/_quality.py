@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from ._cast import paint
 from ._edge import (CENTRE_FIT_BLUR, MAX_FRAMES, MAX_FRAMES_BLURRED, RadiusFit, _FrameInputs,
                     fit_radius, foreign_fraction, spread)
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
@@ -167,8 +168,10 @@ def fit_ball_radius(frames: np.ndarray, clean, gains: np.ndarray, centre: np.nda
     # renderer, MJPEG, radius 10 px, this is 0.05-0.10 px where the centroids' true RMS error
     # is 0.05-0.13 px, docs/tracking.md); correlated along the track (texture, codec)
     shift, spread_px = edge_offset(fit, centre, np.ones(len(centre), bool))
-    foreign = foreign_fraction([frames[k] for k in fit.frames],
-                               [gains[k] * bg for k in fit.frames], fit.centres, fit.radius,
+    # (the ball's own shadow on the wall, where the edge model holds it, is the wall's)
+    walls = [gains[k] * bg if fit.cast is None else paint(gains[k] * bg, c, fit.cast)
+             for k, c in zip(fit.frames, fit.centres, strict=True)]
+    foreign = foreign_fraction([frames[k] for k in fit.frames], walls, fit.centres, fit.radius,
                                fit.sigma)
     return fit._replace(centre_sd=spread_px, foreign=foreign), shift
 

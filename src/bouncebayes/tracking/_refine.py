@@ -197,7 +197,7 @@ def _result(cx, cy, r, se_x, se_y, rss, n, b_1, b_2):
 
 @njit(cache=True)
 def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
-               gt, dgt, az, el, nodes, inner=0.0, occlusion=False):
+               gt, dgt, az, el, nodes, inner, occlusion, cast):
     """One frame's fit from the centre ``(cx, cy)``, ``n_iter`` Gauss-Newton steps, with the
     shadow columns of a light from ``(az, el)`` (radians; none where ``el >= pi/2``): ok, and
     :func:`_result` (the centre's formal standard errors: the residual's variance times the
@@ -206,7 +206,9 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     nearer the centre than ``inner`` (px) are left out (:func:`rim_only`); with ``occlusion``
     the model has the wall the ball hides, ``+ k grad B . (-grad S)`` (``k = sigma^2 + 1/12``,
     the background's gradient from central differences; the edge model's term, held, not
-    differentiated: a few per cent of the step's own derivative)."""
+    differentiated: a few per cent of the step's own derivative). ``cast``: the ball's shadow
+    on the wall ``(du, dv, radius, penumbra, depth)`` (px; depth 0: none, :mod:`._cast`),
+    painted into the background at each step's centre (held, not differentiated)."""
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
@@ -245,7 +247,9 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     # _edge_kernel.foreign_sectors)
     du, dv = pu[:n] - cx, pv[:n] - cy
     rho = np.sqrt(du * du + dv * dv)
-    keep = np.flatnonzero(~foreign_sectors(grey[:n] - back[:n], du, dv, rho, band_from)
+    wall = back[:n].copy()
+    _shaded(pu[:n], pv[:n], back[:n], cx, cy, cast, wall)
+    keep = np.flatnonzero(~foreign_sectors(grey[:n] - wall, du, dv, rho, band_from)
                           & (rho <= reach))
     pu, pv, grey, back = pu[keep], pv[keep], grey[keep], back[keep]
     gbu, gbv = gbu[keep], gbv[keep]
@@ -265,7 +269,9 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     res = np.empty(n)
     beta = np.zeros(n_lin)
     r0, x0, y0 = r, cx, cy
+    wall = back.copy()
     for it in range(max(n_iter, 1)):
+        _shaded(pu, pv, back, cx, cy, cast, wall)
         for k in range(n):
             _pixel(pu[k] - cx, pv[k] - cy, r, 1.0 / r, base, inv_s0, smear2, dir_u, dir_v, r_free,
                    aux, k, z0, inv_dzt, gt, dgt)
@@ -286,7 +292,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                     dsh[k, j, 0] = cp[j, 1] * ct + cp[j, 4] * st / rho
                     dsh[k, j, 1] = cp[j, 1] * st - cp[j, 4] * ct / rho
                     dsh[k, j, 2] = cp[j, 1] * (1.0 + 0.5 * var_t / (r * r)) + cp[j, 3]
-            res[k] = grey[k] - back[k] * out
+            res[k] = grey[k] - wall[k] * out
             if occlusion:  # the wall the ball hides: + k grad B . (-grad S), k = sigma^2 + 1/12
                 res[k] -= base * (gbu[k] * aux[k, 6] + gbv[k] * aux[k, 12])
         if it == 0:  # the linear coefficients at the starting centre
@@ -309,7 +315,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
             res[k] = e
             x, y = aux[k, 3], aux[k, 4]
             d_step = (beta[0] + beta[1] * x + beta[2] * y
-                      + beta[4] * x * y + beta[5] * (x * x - y * y) - back[k]
+                      + beta[4] * x * y + beta[5] * (x * x - y * y) - wall[k]
                       - beta[6] - beta[7] * ct - beta[8] * st)  # d model / d S
             for p in range(n_nl):
                 o = 6 + 6 * p
@@ -345,6 +351,18 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
         _cho_solve(mat, e)
         se[p] = math.sqrt(max(e[p], 0.0) * var)
     return True, _result(cx, cy, r, se[0], se[1], var * max(n - m, 1), n, beta[1], beta[2])
+
+
+@njit(cache=True)
+def _shaded(pu, pv, back, cx, cy, cast, wall):
+    """``wall``: the background ``back`` at pixels ``(pu, pv)`` with the ball's shadow
+    ``cast`` (:func:`_fit_frame`) painted in, the ball at ``(cx, cy)``; ``back`` where none."""
+    if cast[4] <= 0.0:
+        wall[:] = back
+        return
+    for k in range(pu.size):
+        z = (cast[2] - math.hypot(pu[k] - cx - cast[0], pv[k] - cy - cast[1])) / cast[3]
+        wall[k] = back[k] * (1.0 - cast[4] * _phi(z, math.exp(-0.5 * z * z)))
 
 
 @njit(cache=True, fastmath=True)
@@ -392,7 +410,7 @@ def _solve(mat, rhs):
 
 @njit(cache=True)
 def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter,
-                  z0, dzt, gt, dgt, az, el, nodes, inner=0.0, occlusion=False):
+                  z0, dzt, gt, dgt, az, el, nodes, inner, occlusion, cast):
     """:func:`_fit_frame` on frames ``idx`` (in time order) with velocities ``vel`` (px per
     frame): ``(len(idx), 5)`` centre, radius and the centre's formal standard errors, NaN where
     the fit failed. Each fit starts from the centre predicted from the two frames before, where
@@ -410,7 +428,7 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
                 x0, y0, steps = px, py, n_iter
         ok, fit = _fit_frame(frames[k], bg, gains[k], x0, y0, vel[n, 0], vel[n, 1], r, sigma,
                              exposure, r_free, steps, z0, dzt, gt, dgt, az, el, nodes, inner,
-                             occlusion)
+                             occlusion, cast)
         if ok:
             out[n] = fit[:5]
     return out
@@ -418,7 +436,7 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
 
 @njit(cache=True)
 def light_costs(frames, bg, gains, idx, centres, vel, r, sigma, exposure, z0, dzt, gt, dgt,
-                azs, els, nodes, inner=0.0, occlusion=False):
+                azs, els, nodes, inner, occlusion, cast):
     """The cost of the small-ball model with the light from each direction ``(azs[c],
     els[c])`` (radians; elevation pi/2: no shadow) on frames ``idx`` at the centres
     ``centres`` (the linear coefficients fitted, the centre and radius held): the residual sums
@@ -432,7 +450,7 @@ def light_costs(frames, bg, gains, idx, centres, vel, r, sigma, exposure, z0, dz
             k = idx[n]
             ok, fit = _fit_frame(frames[k], bg, gains[k], centres[n, 0], centres[n, 1],
                                  vel[n, 0], vel[n, 1], r, sigma, exposure, False, 0, z0, dzt, gt,
-                                 dgt, azs[c], els[c], nodes, inner, occlusion)
+                                 dgt, azs[c], els[c], nodes, inner, occlusion, cast)
             if not ok:
                 costs[c] = np.inf
             else:
@@ -471,7 +489,7 @@ def refine_centres(frames: np.ndarray, clean, gains: np.ndarray, centre: np.ndar
                    fit.radius > SMALL_RADIUS)
     held, r, r_se, light = _radius_and_light(args, float(fit.radius))
     out = refine_frames(*args[:6], held, *args.blur, False, N_ITER, *args.table, *light,
-                        args.nodes, args.inner, args.rim)
+                        args.nodes, args.inner, args.rim, args.cast)
     ok = ~np.isnan(out[:, 0])
     centre[idx[ok]] = out[ok, :2]
     done[idx[ok]] = True
@@ -510,6 +528,8 @@ class _Inputs(NamedTuple):
     nodes: np.ndarray
     inner: float = 0.0
     rim: bool = False  # a larger ball's fit: its rim only, with the wall's occlusion term
+    # the ball's shadow on the wall (du, dv, radius, penumbra, depth; px), zeros: none
+    cast: np.ndarray = np.zeros(5)
 
 
 def rim_only(radius: float, sigma: float) -> float:
@@ -537,7 +557,8 @@ def _inputs(frames, clean, gains, centre, idx, fit, inner: float = 0.0,
     return _Inputs(np.ascontiguousarray(frames), f64(clean(centre[idx])[0]), f64(gains), idx,
                    f64(centre[idx]), f64(vel), (float(fit.sigma), float(fit.exposure)),
                    (float(zt[0]), float(zt[1] - zt[0]), gt, np.gradient(gt, zt)),
-                   _nodes(SHADOW_NODES), float(inner), bool(rim))
+                   _nodes(SHADOW_NODES), float(inner), bool(rim),
+                   np.zeros(5) if fit.cast is None else np.array(fit.cast, dtype=np.float64))
 
 
 def _radius_and_light(a: _Inputs, r0: float
@@ -557,7 +578,7 @@ def _radius_and_light(a: _Inputs, r0: float
     def first_pass(light: tuple[float, float]):  # the frames' fits, and those that succeeded
         first = refine_frames(a.frames, a.bg, a.gains, a.idx[sub], a.start[sub], a.vel[sub], r0,
                               *a.blur, True, N_ITER, *a.table, *light, a.nodes, a.inner,
-                              a.rim)
+                              a.rim, a.cast)
         return first, np.flatnonzero(~np.isnan(first[:, 0]))
 
     light = (0.0, 0.5 * math.pi)  # first without a shadow
@@ -567,7 +588,7 @@ def _radius_and_light(a: _Inputs, r0: float
     r, r_se = median_and_se(first[good, 2])
     pick = good[spread(len(good), LIGHT_FRAMES)]
     light = find_light(a.frames, a.bg, a.gains, a.idx[sub][pick], first[pick, :2],
-                       a.vel[sub][pick], r, a.blur, a.table, a.nodes, a.inner, a.rim)
+                       a.vel[sub][pick], r, a.blur, a.table, a.nodes, a.inner, a.rim, a.cast)
     held = r
     if light[1] < 0.5 * math.pi:  # the radius the fits hold, with the shadow
         again, ok = first_pass(light)
@@ -577,7 +598,7 @@ def _radius_and_light(a: _Inputs, r0: float
 
 def find_light(frames, bg, gains, idx, centres, vel, r: float, blur: tuple[float, float],
                table: tuple[float, float, np.ndarray, np.ndarray], nodes, inner: float = 0.0,
-               rim: bool = False) -> tuple[float, float]:
+               rim: bool = False, cast: np.ndarray | None = None) -> tuple[float, float]:
     """The light's direction ``(az, el)`` (radians) for the small-ball fit's shadow columns,
     from the frames ``idx`` at their centres ``centres`` (``vel``: px per frame; ``blur``:
     sigma, exposure): the azimuth of the shading's gradient without a shadow, then the best
@@ -586,14 +607,15 @@ def find_light(frames, bg, gains, idx, centres, vel, r: float, blur: tuple[float
     cost by ``LIGHT_GAIN`` residual variances a frame."""
     args = (frames, bg, gains, idx.astype(np.int64), np.ascontiguousarray(centres),
             np.ascontiguousarray(vel), r, *blur, *table)
+    cast = np.zeros(5) if cast is None else cast
     none, n_pix, grad = light_costs(*args, np.zeros(1), np.full(1, 0.5 * math.pi), nodes, inner,
-                                    rim)
+                                    rim, cast)
     azs = math.atan2(grad[1], grad[0]) + LIGHT_OFFSETS  # the lit side's direction
     costs, _, _ = light_costs(*args, azs, np.full(azs.size, LIGHT_ELEVATIONS[1]), nodes, inner,
-                              rim)
+                              rim, cast)
     az = float(azs[int(np.argmin(costs))])
     els = np.array(LIGHT_ELEVATIONS)
-    costs, _, _ = light_costs(*args, np.full(els.size, az), els, nodes, inner, rim)
+    costs, _, _ = light_costs(*args, np.full(els.size, az), els, nodes, inner, rim, cast)
     best = int(np.argmin(costs))
     if not none[0] - costs[best] >= LIGHT_GAIN * len(idx) * costs[best] / max(n_pix, 1):
         return 0.0, 0.5 * math.pi
