@@ -2295,8 +2295,8 @@ def test_a_dark_balls_shadow_merged_with_it_is_not_taken_for_the_ball(radius):
     # one blob. Before, the edge model fitted from it one larger disk: measured +32.7 % (8 px)
     # and +32.6 % (12 px), centres 4.6 px off, nothing said; with the misfit's restarts
     # (_edge.MISFIT: RMS residual 2.4 and 3.4 times the noise) -0.07 % and -0.08 %, the
-    # shadow's sides left out; since the shadow is held (_cast) -0.73 % and +0.05 %, centres
-    # 0.090 and 0.035 px, and said
+    # shadow's sides left out; since the shadow is held (_cast) +0.22 % and -0.01 %, centres
+    # 0.026 and 0.025 px, and said
     kw = dict(width=240, height=120, radius_px=radius, n_frames=80, surface_v=100.0,
               slope_deg=2.0, sigma_px=0.7, exposure=0.3, supersample=3, wall=200.0,
               plane=170.0, albedo=0.2, ambient=0.2,
@@ -2311,7 +2311,8 @@ def test_a_dark_balls_shadow_merged_with_it_is_not_taken_for_the_ball(radius):
     found = track.radius_fit.cast
     assert found is not None and math.hypot(found.du - 0.6 * radius,
                                             found.dv - 0.5 * radius) < 0.1 * radius
-    assert "shadow" in cast_message(track) and radius_warning(track) is None
+    assert "shadow" in cast_message(track)
+    assert "shadow" not in (radius_warning(track) or "")  # no sides left out: it is held
 
 
 def test_the_surface_angles_se_holds_an_edge_that_wanders():
