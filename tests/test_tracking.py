@@ -976,6 +976,24 @@ def test_the_balls_shadow_that_hugs_its_edge_is_held(cast, lighting):
     assert "shadow" in cast_message(track)
 
 
+def test_the_shadows_note_says_where_it_lies():
+    from types import SimpleNamespace
+
+    from bouncebayes.tracking import cast_message
+    from bouncebayes.tracking._cast import CastShadow
+
+    # image axes: u right, v down; the offset's direction in eighths, a small one a halo
+    def note(du, dv):
+        return cast_message(SimpleNamespace(radius_fit=SimpleNamespace(
+            cast=CastShadow(du, dv, 10.0, 1.2, 0.6))))
+
+    assert "towards the lower right" in note(3.0, 3.0) and "60 % dark" in note(3.0, 3.0)
+    assert "towards the left" in note(-4.0, 0.5) and "towards the top" in note(0.2, -3.0)
+    assert "a halo all round it" in note(0.2, -0.1)
+    assert cast_message(SimpleNamespace(radius_fit=SimpleNamespace(cast=None))) is None
+    assert cast_message(SimpleNamespace(radius_fit=None)) is None
+
+
 @pytest.mark.parametrize("lighting", [
     {}, dict(specular=1.2, shininess=30.0, limb_u=0.5), dict(mark=0.3), DARK])
 def test_a_ball_without_a_shadow_on_the_wall_gets_none(lighting):

@@ -112,8 +112,7 @@ def _track_videos(data: Path, experiment, stage: Path, log, video: dict,
     ``video``: ``fps``, ``surface`` (``"X1,Y1,X2,Y2"`` or None: detected), ``tone_curve`` and
     ``readout``, as :func:`run`."""
     from .tracking import (Surface, TrackerConfig, camera_message, cast_message,
-                           tone_curve_label, track_video,
-                           write_track_files)
+                           tone_curve_label, track_video, write_track_files)
 
     fps = video["fps"]
     surface = None if video["surface"] is None else Surface.from_text(video["surface"])

@@ -1402,7 +1402,8 @@ def _shared(args: list[tuple[np.ndarray, np.ndarray, Any, Any]],
             float(np.median([f.r for f in agree])))
 
 
-def _free_fits(args: Sequence[tuple[Any, Any, Any, Any]], r0: float, kappa: np.ndarray | None, noise: float | None
+def _free_fits(args: Sequence[tuple[Any, Any, Any, Any]], r0: float,
+               kappa: np.ndarray | None, noise: float | None
                ) -> tuple[dict[int, EdgeFit | None], float]:
     """The free fits (all seven parameters, most of the cost) on up to ``FIRST_FRAMES`` of the
     frames ``args``, spread: they only set the shared blur, exposure, light and the starting

@@ -537,7 +537,7 @@ def cast_message(track: Track) -> str | None:
     if cast is None:
         return None
     return (f"shadow: the ball casts a shadow on the wall behind it that hugs its edge (its "
-            f"centre {cast.offset:.1f} px from the ball's, towards {_towards(cast)}, "
+            f"centre {cast.offset:.1f} px from the ball's, {_towards(cast)}, "
             f"{100 * cast.depth:.0f} % dark, {cast.radius:.1f} px in radius); the edge model "
             "held it (left alone it takes the shadow for part of the ball: rendered, the radius "
             "5-10 % large and the centres up to 1.7 px towards it). A wall further behind "
@@ -547,10 +547,10 @@ def cast_message(track: Track) -> str | None:
 def _towards(cast) -> str:
     """The image direction of the shadow's offset in words (v runs down)."""
     if cast.offset < 0.5:
-        return "nowhere in particular (a halo all round)"
+        return "a halo all round it"
     names = ("the right", "the lower right", "the bottom", "the lower left", "the left",
              "the upper left", "the top", "the upper right")
-    return names[round(math.degrees(math.atan2(cast.dv, cast.du)) / 45.0) % 8]
+    return "towards " + names[round(math.degrees(math.atan2(cast.dv, cast.du)) / 45.0) % 8]
 
 
 def camera_message(track: Track) -> str | None:
