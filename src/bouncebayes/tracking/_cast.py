@@ -84,17 +84,12 @@ class CastShadow(NamedTuple):
         return math.hypot(self.du, self.dv)
 
 
-def factor(u: np.ndarray, v: np.ndarray, centre, cast: CastShadow) -> np.ndarray:
-    """The fraction of the wall's light left at pixels ``(u, v)`` with the ball at ``centre``."""
-    from scipy.special import ndtr
-
-    dist = np.hypot(u - centre[0] - cast.du, v - centre[1] - cast.dv)
-    return 1.0 - cast.depth * ndtr((cast.radius - dist) / cast.penumbra)
-
-
 def paint(bg: np.ndarray, centre, cast: CastShadow) -> np.ndarray:
     """``bg`` (a background image) with the ball's shadow painted in, the ball at ``centre``
-    (px); a new float64 array."""
+    (px); a new float64 array. The shadow's profile is the per-frame centre fits' own
+    (:func:`._refine._shaded`), so the two read one shadow."""
+    from ._refine import _shaded
+
     out = np.array(bg, dtype=np.float64)
     reach = cast.radius + 5.0 * cast.penumbra + 1.0
     cu, cv = centre[0] + cast.du, centre[1] + cast.dv
@@ -103,7 +98,11 @@ def paint(bg: np.ndarray, centre, cast: CastShadow) -> np.ndarray:
     u1, v1 = min(int(cu + reach) + 2, w), min(int(cv + reach) + 2, h)
     if u1 > u0 and v1 > v0:
         vv, uu = np.mgrid[v0:v1, u0:u1].astype(np.float64)
-        out[v0:v1, u0:u1] *= factor(uu, vv, centre, cast)
+        window = np.ascontiguousarray(out[v0:v1, u0:u1]).ravel()
+        shaded = np.empty_like(window)
+        _shaded(uu.ravel(), vv.ravel(), window, float(centre[0]), float(centre[1]),
+                np.array(cast, dtype=np.float64), shaded)
+        out[v0:v1, u0:u1] = shaded.reshape(v1 - v0, u1 - u0)
     return out
 
 
