@@ -2301,7 +2301,7 @@ def test_the_compiled_small_ball_fit_finds_the_least_squares_centre(r_free, ligh
         assert math.hypot(cx - c[0], cy - c[1]) < (0.15 if light is None else 0.08)
 
 
-@pytest.mark.parametrize("radius", [8.0, 12.0])
+@pytest.mark.parametrize("radius", [8.0, 12.0, 15.0])
 def test_a_dark_balls_shadow_merged_with_it_is_not_taken_for_the_ball(radius):
     from render_pbr import Shot, Throw, render
 
@@ -2314,7 +2314,10 @@ def test_a_dark_balls_shadow_merged_with_it_is_not_taken_for_the_ball(radius):
     # and +32.6 % (12 px), centres 4.6 px off, nothing said; with the misfit's restarts
     # (_edge.MISFIT: RMS residual 2.4 and 3.4 times the noise) -0.07 % and -0.08 %, the
     # shadow's sides left out; since the shadow is held (_cast) +0.22 % and -0.01 %, centres
-    # 0.026 and 0.025 px, and said
+    # 0.026 and 0.025 px, and said. At 15 px the ball enters the frame cut by its top edge,
+    # whose frame-edge disk fits took in the shadow (5.5 px off) and whose per-frame fits
+    # started from them: frames 4-6, wholly or nearly in view, 3.6-4.2 px off and not
+    # flagged; fitted again from the frames after them (_refine._backward) 0.05 px
     kw = dict(width=240, height=120, radius_px=radius, n_frames=80, surface_v=100.0,
               slope_deg=2.0, sigma_px=0.7, exposure=0.3, supersample=3, wall=200.0,
               plane=170.0, albedo=0.2, ambient=0.2,
@@ -2325,6 +2328,8 @@ def test_a_dark_balls_shadow_merged_with_it_is_not_taken_for_the_ball(radius):
     assert np.nanmedian(track.radius) > 1.2 * radius  # the coverage took in the shadow
     assert abs(track.radius_fit.radius / radius - 1) < 0.01
     assert rms(track.centre - shot.true_centres()) < 0.1
+    error = np.hypot(*(track.centre - shot.true_centres()).T)
+    assert np.nanmax(error) < 0.3
     assert track.radius_fit.rms < _edge.MISFIT * track.noise
     found = track.radius_fit.cast
     assert found is not None and math.hypot(found.du - 0.6 * radius,

@@ -132,3 +132,35 @@ def test_undistorting_inverts_the_division_model(lam):
     assert np.abs(columns(frame[0]) - 340.0).max() >= 2.0  # bent by the lens
     # straight again, to the drawing's rounding to whole pixels (<= 0.5 px)
     assert np.abs(columns(undistort(frame, lam)[0]) - 340.0).max() < 0.8
+
+
+def test_a_frame_counter_burned_in_beside_the_surface_is_not_a_lens(tmp_path):
+    import cv2
+    from render_pbr import Shot, Throw, render, write
+
+    from bouncebayes.tracking import track_video
+    from bouncebayes.tracking._lens import SPREAD
+
+    # expected: the renderer's radius (10 px) and a straight surface edge (no lens). A high-
+    # speed camera's frame counter burned into the lower right corner: a black box whose top
+    # edge lies 4 px under a faint surface step (wall 50, plane 30 grey levels) and white
+    # digits that change every frame. Before, the box's edge took most of the pixels the bow
+    # is read from (3 % of them in the edge's first third) and read as a bow of 7.3 +- 0.5 px:
+    # the frames were "undistorted", the radius came out 10.77 px and the picture shrinking
+    # by 20 %, all said as the video's. MJPEG, as the camera would store it
+    shot = Shot(width=320, height=200, radius_px=10.0, n_frames=90, surface_v=170.0,
+                slope_deg=2.0, sigma_px=0.6, exposure=0.2, supersample=3, seed=4,
+                throw=Throw(speed_in=2.5, angle_in=35.0, t_contact=0.045, x_contact=0.1))
+    frames = render(shot)
+    for k, frame in enumerate(frames):
+        text = f"{k:05d} {k / 1000:.3f}s"
+        (tw, th), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+        org = (320 - tw - 3, 196)
+        cv2.rectangle(frame, (org[0] - 2, org[1] - th - 2), (org[0] + tw + 2, org[1] + 3), 0, -1)
+        cv2.putText(frame, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 255, 1, cv2.LINE_AA)
+    video = track_video(write(frames, tmp_path / "counter.avi", 1000.0, "MJPG"), fps=1000.0,
+                        ball_diameter=shot.diameter_m)
+    assert video.lens is not None and video.lens.spread < SPREAD
+    assert not video.lens.significant and video.undistorted is None
+    assert abs(video.track.ball_radius / 10.0 - 1) < 0.01
+    assert abs(video.surface.angle + 2.0) < 3 * video.surface.angle_sd_deg

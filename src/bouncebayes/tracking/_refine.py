@@ -86,6 +86,8 @@ N_ITER = 1           # Gauss-Newton steps per frame from the centre predicted fr
 #                      frames before (from the centroid: one more; 2 and 3 steps from it give the
 #                      same accuracy, 1 less; benchmarks/paper_camera.py)
 PREDICT_PX = 0.5     # the prediction is used where within this of the centroid (not at impact)
+BACKWARD_PX = 1.0    # a fit this far from the prediction from the two frames after is tried again
+#                      from there (_backward)
 RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
 REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
 N_LIN = 9            # linear coefficients: b_0..b_5, o_0..o_2
@@ -415,8 +417,10 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
     frame): ``(len(idx), 5)`` centre, radius and the centre's formal standard errors, NaN where
     the fit failed. Each fit starts from the centre predicted from the two frames before, where
     both were fitted and it is within ``PREDICT_PX`` of ``start`` (the centroid), and then
-    takes ``n_iter`` Gauss-Newton steps; from ``start`` and ``n_iter + 1`` steps otherwise."""
+    takes ``n_iter`` Gauss-Newton steps; from ``start`` and ``n_iter + 1`` steps otherwise.
+    Then :func:`_backward`."""
     out = np.full((len(idx), 5), np.nan)
+    cost = np.full(len(idx), np.inf)  # the fits' mean squared residuals
     for n in range(len(idx)):
         k = idx[n]
         x0, y0, steps = start[n, 0], start[n, 1], n_iter + 1
@@ -431,7 +435,37 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
                              occlusion, cast)
         if ok:
             out[n] = fit[:5]
+            cost[n] = fit[5] / fit[6]
+    _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z0, dzt, gt,
+              dgt, az, el, nodes, inner, occlusion, cast, out, cost)
     return out
+
+
+@njit(cache=True)
+def _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z0, dzt, gt,
+              dgt, az, el, nodes, inner, occlusion, cast, out, cost):
+    """From the last frame back, each fit that failed or lies more than ``BACKWARD_PX`` from
+    the centre predicted from the two frames after it is fitted again from that prediction
+    (``n_iter + 1`` steps), and the new fit kept where its mean squared residual is lower.
+    The starts the forward pass has can all be wrong together: a ball entering the frame
+    whose shadow on the wall merges with it (a dark 15 px ball: its frame-edge disk fits 5.5 px
+    towards the shadow, and the fits from there 3.6-4.2 px off, nothing said; from the frames
+    after, 0.1 px). ``out`` and ``cost`` (:func:`refine_frames`) are written in place."""
+    for n in range(len(idx) - 3, -1, -1):
+        k = idx[n]
+        if (idx[n + 1] != k + 1 or idx[n + 2] != k + 2 or math.isnan(out[n + 1, 0])
+                or math.isnan(out[n + 2, 0])):
+            continue
+        px = 2.0 * out[n + 1, 0] - out[n + 2, 0]
+        py = 2.0 * out[n + 1, 1] - out[n + 2, 1]
+        if not math.isnan(out[n, 0]) and math.hypot(px - out[n, 0], py - out[n, 1]) <= BACKWARD_PX:
+            continue
+        ok, fit = _fit_frame(frames[k], bg, gains[k], px, py, vel[n, 0], vel[n, 1], r, sigma,
+                             exposure, r_free, n_iter + 1, z0, dzt, gt, dgt, az, el, nodes,
+                             inner, occlusion, cast)
+        if ok and fit[5] / fit[6] < cost[n]:
+            out[n] = fit[:5]
+            cost[n] = fit[5] / fit[6]
 
 
 @njit(cache=True)
