@@ -25,6 +25,7 @@ from ._cast import paint
 from ._edge import (CENTRE_FIT_BLUR, MAX_FRAMES, MAX_FRAMES_BLURRED, RadiusFit, _FrameInputs,
                     fit_radius, foreign_fraction, spread)
 from ._measure import CENTROID, EDGE_FIT, NOT_FOUND, _Searcher
+from ._refine import REFIT_FACTOR
 
 FLAG_FACTOR = 2.0   # residual above FLAG_FACTOR x the video's median ...
 FLAG_FLOOR = 0.06   # ... and above this fraction of the ball's contrast: flagged
@@ -32,6 +33,25 @@ EDGE_FACTOR = 2.0   # for a ball cut by the frame edge: above EDGE_FACTOR x the 
 EDGE_VISIBLE = 0.9  # ... or less than this fraction of it in view (errors of 0.3-1.5 px for a
 #                     10 px ball on the independent renderer, tests/test_tracking.py)
 RAMP = 1.5          # px, width of the disk's edge ramp in the comparison
+
+
+REFIT_EXCESS = 0.35  # ... and beyond that median by this fraction of the ball's contrast
+
+
+def refit_misfit(rms: np.ndarray | None, contrast: np.ndarray) -> np.ndarray:
+    """The frames whose per-frame centre fit's RMS residual ``rms`` (grey levels, NaN where
+    not refined; None: none refined) is over ``REFIT_FACTOR`` times the median and beyond it
+    (``sqrt(rms^2 - median^2)``) by ``REFIT_EXCESS`` of the ball's median ``contrast`` (grey
+    levels, per frame): a part of the ball hidden misfits by its contrast. (With no blur at
+    all, rendered balls of 10-15 px had frames at 2.2-2.9 times the median, 0.12-0.28 of the
+    contrast beyond it, their centres 0.003-0.23 px off; the frame counter's hidden frames,
+    0.5 or more)."""
+    if rms is None or np.isnan(rms).all():
+        return np.zeros(len(contrast), bool)
+    med = float(np.nanmedian(rms))
+    with np.errstate(invalid="ignore"):
+        excess = np.sqrt(np.maximum(rms * rms - med * med, 0.0))
+        return (rms > REFIT_FACTOR * med) & (excess > REFIT_EXCESS * np.nanmedian(contrast))
 
 
 def _unit_disk(n: int = 24) -> np.ndarray:

@@ -15,7 +15,7 @@ from .._validate import check_choice, check_scalar
 from ._edge import SMALL_BALL_FIT, RadiusFit, spread
 from ._camera import stabilise
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
-from ._quality import edge_offset, fit_ball_radius, frame_quality
+from ._quality import edge_offset, fit_ball_radius, frame_quality, refit_misfit
 from ._timing import FrameTiming, frame_timing, lost_at_bounces, same_picture
 from ._tone import check_tone_curve, decode, decode_table
 
@@ -90,7 +90,8 @@ class Track:
     Per-frame quality: ``residual`` (RMS misfit of a disk of the ball's radius to the frame's
     coverage, grey levels), ``visible`` (fraction of the ball's disk inside the frame) and
     ``flag`` (the ball model fits badly: part of the ball hidden or indistinguishable from the
-    background -- an unlit rim against a lit band, a shadow, an occluder); NaN / False where not
+    background -- an unlit rim against a lit band, a shadow, an occluder; or the per-frame
+    centre fit's residual stands out, :func:`._quality.refit_misfit`); NaN / False where not
     found. ``radius_fit``: the ball's radius from its edge (:mod:`._edge`) with its standard
     error, None where no frame could be fitted (then :attr:`ball_radius` is the median
     coverage radius). ``centre_offset``: the shift (px) applied to every coverage centroid so
@@ -325,7 +326,8 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
                                             compiled=compiled)
     fitted = _fit_ball(frames, state, background is not None, centre, radius, method, flag,
-                       config, noise)
+                       contrast, config, noise)
+    flag = flag | fitted.pop("misfit")
     # lost and repeated frames, told by the ball's steps (the repeated ones flagged)
     timing = _frame_timing(frames, centre, radius, (method != NOT_FOUND) & ~flag,
                            fitted["radius_fit"], noise)
@@ -389,7 +391,7 @@ def _background(given: np.ndarray | None, config: TrackerConfig, frames: np.ndar
     return given if given is not None else background_model(frames, config.background_frames)
 
 
-def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config,
+def _fit_ball(frames, state, given: bool, centre, radius, method, flag, contrast, config,
               noise: float) -> dict[str, Any]:
     """The fits after the search, on ``centre`` (moved in place): the edge model's radius
     (:func:`._quality.fit_ball_radius`; ``noise`` the frames', grey levels), its centres'
@@ -397,7 +399,8 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config,
     ball left out around where they look (:func:`_ball_free_background`), or the one given
     (``given``) as it is. Returns :class:`Track`'s fields of them: ``radius_fit``,
     ``centre_offset`` (the centroids'), ``refined`` (the mask of refined frames) and
-    ``refined_offset``."""
+    ``refined_offset``; and ``misfit``, the frames whose per-frame fit misfits (flagged:
+    :func:`._quality.refit_misfit`)."""
     from ._refine import SMALL_RADIUS, refine_centres, stated_centre_sd
 
     gains = np.asarray(state.gains, np.float64)
@@ -410,15 +413,16 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config,
         config.edge_model else (None, (0.0, 0.0))
     centre[method == CENTROID] += offset
     small = refine_centres(frames, clean, gains, centre, method, fit)
-    refined = small.done
-    if refined.any() and fit is not None:
+    refined, misfit = small.done, refit_misfit(small.rms, contrast)
+    trusted = refined & ~misfit  # (the misfits' centres are flagged: they say nothing here)
+    if trusted.any() and fit is not None:
         # the refined centres' SD, not the centroids'
-        fit = fit._replace(centre_sd=stated_centre_sd(small.se[refined]))
+        fit = fit._replace(centre_sd=stated_centre_sd(small.se[trusted]))
         if fit.radius > SMALL_RADIUS:
             # a larger ball keeps the edge model's radius, and its refined centres take the
             # edge fits' mean position (the cut-down shading leaves a constant bias: a glossy
             # ball's highlight 0.1-0.4 px), as the centroids do
-            shift, spread_px = edge_offset(fit, centre, refined)
+            shift, spread_px = edge_offset(fit, centre, trusted)
             centre[refined] += shift
             # their stated SD at least their disagreement with the edge fits' centres, which
             # the formal errors miss where the model does not hold (a mark on the ball)
@@ -432,7 +436,7 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, config,
             if small.light is not None and small.light[1] < fit.light[1]:
                 fit = fit._replace(light=small.light)
     return {"radius_fit": fit, "centre_offset": offset, "refined": refined,
-            "refined_offset": shift}
+            "refined_offset": shift, "misfit": misfit}
 
 
 def _check_frames(frames) -> np.ndarray:
