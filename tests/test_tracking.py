@@ -2404,6 +2404,34 @@ def test_the_surface_angles_se_holds_an_edge_that_wanders():
     assert math.sqrt(np.mean(np.square(z_pixels))) > 1.5
 
 
+def test_the_surface_angles_se_holds_a_wall_texture_that_tilts_a_faint_edge():
+    from render_pbr import Shot, Throw, render
+
+    import bouncebayes.tracking._geometry as geometry
+
+    # expected: the renderer's surface, at 2 degrees (the angle -2: v points down). A faint
+    # step (wall 50 +- 10 grey levels over a plane of 30) whose wall texture bends the edge's
+    # sub-pixel positions smoothly along it, 0.75 px over 260 px: the line came out -1.797 +-
+    # 0.030 degrees, z 6.8. The angles with the image smoothed by 0.5 and 2 px (-1.88,
+    # -1.69) tell that its texture moves it: half their range in the SE, +- 0.10, z 2.0
+    shot = Shot(width=320, height=200, radius_px=10.0, n_frames=90, surface_v=170.0,
+                slope_deg=2.0, sigma_px=0.6, exposure=0.2, supersample=3, seed=4, codec="MJPG",
+                throw=Throw(speed_in=2.5, angle_in=35.0, t_contact=0.045, x_contact=0.1))
+    track = track_ball(render(shot))
+    line = detect_surface(track.background, centres=track.centre[track.found],
+                          radius=track.ball_radius)
+    assert abs(line.angle + 2.0) < 3 * line.angle_sd_deg
+    assert abs(line.angle + 2.0) > 0.15  # (the texture's pull itself, as measured)
+    keep = geometry.OTHER_SMOOTH_PX
+    geometry.OTHER_SMOOTH_PX = ()
+    try:
+        alone = detect_surface(track.background, centres=track.centre[track.found],
+                               radius=track.ball_radius)
+    finally:
+        geometry.OTHER_SMOOTH_PX = keep
+    assert alone.angle == line.angle and abs(alone.angle + 2.0) > 5 * alone.angle_sd_deg
+
+
 def test_the_surface_line_is_fitted_to_the_edges_sub_pixel_positions():
     from scipy.special import erf
 
