@@ -421,6 +421,18 @@ def _codec(frames: np.ndarray, shot: Shot) -> np.ndarray:
     return np.stack(out)
 
 
+def burn_counter(frames: np.ndarray, x: int, baseline: int, right: bool = False) -> None:
+    """A high-speed camera's frame counter burned into ``frames`` (in place): a black box and
+    white digits (frame number, time at 1000 fps) that change every frame, the text's baseline
+    at row ``baseline`` and its left edge at column ``x`` (its right edge, ``right``)."""
+    for k, frame in enumerate(frames):
+        text = f"{k:05d} {k / 1000:.3f}s"
+        (tw, th), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+        org = (x - tw if right else x, baseline)
+        cv2.rectangle(frame, (org[0] - 2, org[1] - th - 2), (org[0] + tw + 2, org[1] + 3), 0, -1)
+        cv2.putText(frame, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 255, 1, cv2.LINE_AA)
+
+
 def write(frames: np.ndarray, path: Path, fps: float, fourcc: str) -> Path:
     """Frames to a video file (grey, through OpenCV's writer)."""
     h, w = frames.shape[1:]

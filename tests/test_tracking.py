@@ -2339,8 +2339,7 @@ def test_a_dark_balls_shadow_merged_with_it_is_not_taken_for_the_ball(radius):
 
 
 def test_a_frame_counter_burned_in_across_the_balls_path():
-    import cv2
-    from render_pbr import Shot, Throw, render
+    from render_pbr import Shot, Throw, burn_counter, render
 
     from bouncebayes.tracking import radius_warning
 
@@ -2358,11 +2357,7 @@ def test_a_frame_counter_burned_in_across_the_balls_path():
                 plane=60.0, throw=Throw(speed_in=2.5, angle_in=35.0, t_contact=0.045,
                                         x_contact=0.1))
     frames = render(shot)
-    for k, frame in enumerate(frames):
-        text = f"{k:05d} {k / 1000:.3f}s"
-        (tw, th), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
-        cv2.rectangle(frame, (60, 118 - th), (64 + tw, 123), 0, -1)
-        cv2.putText(frame, text, (62, 120), cv2.FONT_HERSHEY_SIMPLEX, 0.45, 255, 1, cv2.LINE_AA)
+    burn_counter(frames, 62, 120)
     track = track_ball(frames)
     assert abs(track.radius_fit.radius / 10.0 - 1) < 0.01 and radius_warning(track) is None
     error = np.hypot(*(track.centre - shot.true_centres()).T)

@@ -135,8 +135,7 @@ def test_undistorting_inverts_the_division_model(lam):
 
 
 def test_a_frame_counter_burned_in_beside_the_surface_is_not_a_lens(tmp_path):
-    import cv2
-    from render_pbr import Shot, Throw, render, write
+    from render_pbr import Shot, Throw, burn_counter, render, write
 
     from bouncebayes.tracking import track_video
     from bouncebayes.tracking._lens import SPREAD
@@ -152,12 +151,7 @@ def test_a_frame_counter_burned_in_beside_the_surface_is_not_a_lens(tmp_path):
                 slope_deg=2.0, sigma_px=0.6, exposure=0.2, supersample=3, seed=4,
                 throw=Throw(speed_in=2.5, angle_in=35.0, t_contact=0.045, x_contact=0.1))
     frames = render(shot)
-    for k, frame in enumerate(frames):
-        text = f"{k:05d} {k / 1000:.3f}s"
-        (tw, th), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
-        org = (320 - tw - 3, 196)
-        cv2.rectangle(frame, (org[0] - 2, org[1] - th - 2), (org[0] + tw + 2, org[1] + 3), 0, -1)
-        cv2.putText(frame, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 255, 1, cv2.LINE_AA)
+    burn_counter(frames, 317, 196, right=True)
     video = track_video(write(frames, tmp_path / "counter.avi", 1000.0, "MJPG"), fps=1000.0,
                         ball_diameter=shot.diameter_m)
     assert video.lens is not None and video.lens.spread < SPREAD

@@ -35,7 +35,9 @@ EDGE_VISIBLE = 0.9  # ... or less than this fraction of it in view (errors of 0.
 RAMP = 1.5          # px, width of the disk's edge ramp in the comparison
 
 
-REFIT_EXCESS = 0.35  # ... and beyond that median by this fraction of the ball's contrast
+# a frame whose per-frame fit misfits by _refine.REFIT_FACTOR times the video's median is
+# flagged where it lies beyond that median by this fraction of the ball's contrast too
+REFIT_EXCESS = 0.35
 
 
 def refit_misfit(rms: np.ndarray | None, contrast: np.ndarray) -> np.ndarray:

@@ -89,12 +89,12 @@ PREDICT_PX = 0.5     # the prediction is used where within this of the centroid 
 BACKWARD_PX = 1.0    # a fit this far from the prediction from the two frames after is tried again
 #                      from there (_backward)
 # a frame whose per-frame centre fit leaves an RMS residual over REFIT_FACTOR times the
-# video's median is flagged: part of the ball hidden by something in front of it that the
-# background holds as well (a frame counter burned in across its path, tests/render_pbr.py:
-# the frames 0.7-3.6 px off 2.0-7.7 times the median, the coverage's misfit only 1.0-2.3
-# times its own, high on every frame of that low-contrast ball; clean frames of ten rendered
-# scenes, contact shadow, lit band, glossy, dark, marked and motion-blurred balls of 6-15 px,
-# MJPEG, at most 1.65 times)
+# video's median (and _quality.REFIT_EXCESS of the ball's contrast beyond it) is flagged:
+# part of the ball hidden by something in front of it that the background holds as well (a
+# frame counter burned in across its path, tests/render_pbr.py: the frames 0.7-3.6 px off
+# 2.0-10 times the median, the coverage's misfit only 1.0-2.3 times its own, high on every
+# frame of that low-contrast ball; clean frames of ten rendered scenes, contact shadow, lit
+# band, glossy, dark, marked and motion-blurred balls of 6-15 px, MJPEG, at most 1.65 times)
 REFIT_FACTOR = 2.0   # (flagged: _quality.refit_misfit; nor do they predict: _backward)
 RADIUS_FRAMES = 15   # frames of the first pass (radius free): its median radius is held after
 REACH_PX, REACH_BLURS = 1.0, 2.5  # pixels fitted: within r + REACH_PX + REACH_BLURS blurs
@@ -423,10 +423,10 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
                   z0, dzt, gt, dgt, az, el, nodes, inner, occlusion, cast):
     """:func:`_fit_frame` on frames ``idx`` (in time order) with velocities ``vel`` (px per
     frame): ``(len(idx), 6)`` centre, radius, the centre's formal standard errors and the RMS
-    residual (grey levels), NaN where the fit failed. Each fit starts from the centre predicted from the two frames before, where
-    both were fitted and it is within ``PREDICT_PX`` of ``start`` (the centroid), and then
-    takes ``n_iter`` Gauss-Newton steps; from ``start`` and ``n_iter + 1`` steps otherwise.
-    Then :func:`_backward`."""
+    residual (grey levels), NaN where the fit failed. Each fit starts from the centre
+    predicted from the two frames before, where both were fitted and it is within
+    ``PREDICT_PX`` of ``start`` (the centroid), and then takes ``n_iter`` Gauss-Newton steps;
+    from ``start`` and ``n_iter + 1`` steps otherwise. Then :func:`_backward`."""
     out = np.full((len(idx), 6), np.nan)
     cost = np.full(len(idx), np.inf)  # the fits' mean squared residuals
     for n in range(len(idx)):
