@@ -37,7 +37,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-CAST_MIN_RADIUS = 8.0  # px: smaller balls are not looked at (the edge model's SHADOW_MIN_RADIUS)
+CAST_MIN_RADIUS = 4.0  # px: smaller balls are not looked at
+# a ball under SMALL_CAST_RADIUS (px) holds a shadow only SMALL_CAST_DEPTH dark or more: the
+# paper's camera (224 x 64 px, a 5 px ball, tests/render_pbr.py), a clean MJPEG clip had one
+# 0.06 dark "found" (its radius -1.3 -> 0.0 %, but said); its shadows 0.37-0.79 dark
+SMALL_CAST_RADIUS = 8.0
+SMALL_CAST_DEPTH = 0.2
 # the grid's median gain (residual variances) from which the frames are fitted with a shadow.
 # Measured on rendered 10 px balls (three frames each; tests/render_pbr.py): clear balls,
 # side-lit, glossy, striped and dark, 2-20 (median over frames <= 13); shadows offset 0.14-0.57
@@ -308,8 +313,10 @@ def _shape(got: dict[int, _Fitted], n_frames: int
 
 def _plausible(p: np.ndarray, depth: float) -> bool:
     """Whether a fit's shadow ``p[4:]`` (px) with ``depth`` can be one: it darkens the wall
-    (not beyond black) and shows beyond the ball's rim ``p[2]``."""
-    return 0.05 <= depth <= 1.0 and math.hypot(p[4], p[5]) + p[6] > p[2] + p[7]
+    (not beyond black; a small ball's by ``SMALL_CAST_DEPTH`` at least) and shows beyond the
+    ball's rim ``p[2]``."""
+    least = SMALL_CAST_DEPTH if p[2] < SMALL_CAST_RADIUS else 0.05
+    return least <= depth <= 1.0 and math.hypot(p[4], p[5]) + p[6] > p[2] + p[7]
 
 
 def at_centres(args: Sequence[tuple], centres: dict[int, np.ndarray]
