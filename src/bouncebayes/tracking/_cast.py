@@ -144,8 +144,6 @@ def _grid_gain(px, fit) -> tuple[float, tuple[float, float]]:
     """The most cost (in residual variances) that one shadow column on the grid of offsets
     takes off the fit ``fit``'s, its parameters held (each column projected on the residual
     space of the fit's design, by its QR factors), and that column's offset (px)."""
-    from scipy.special import ndtr
-
     a, fixed = _design(px, fit, (fit.cx, fit.cy), fit.r, fit.sigma)
     y = px.grey - fixed
     qm, _ = np.linalg.qr(a)
@@ -154,8 +152,7 @@ def _grid_gain(px, fit) -> tuple[float, tuple[float, float]]:
     offsets = [(0.0, 0.0)] + [(m * fit.r * math.cos(t), m * fit.r * math.sin(t))
                               for m in CAST_OFFSETS
                               for t in np.arange(CAST_DIRECTIONS) * (2 * math.pi / CAST_DIRECTIONS)]
-    wall = a[:, -3] * px.bg  # (1 - S) B
-    g = np.column_stack([wall * ndtr(fit.r - np.hypot(px.u - fit.cx - du, px.v - fit.cy - dv))
+    g = np.column_stack([_column(px, a, (fit.cx, fit.cy, 0.0, 0.0, du, dv, fit.r, 1.0))
                          for du, dv in offsets])
     g -= qm @ (qm.T @ g)
     norm = np.einsum("ij,ij->j", g, g)
@@ -163,6 +160,16 @@ def _grid_gain(px, fit) -> tuple[float, tuple[float, float]]:
                     0.0)
     best = int(np.argmax(gain))
     return float(gain[best]), offsets[best]
+
+
+def _column(px, a: np.ndarray, p) -> np.ndarray:
+    """The shadow's column of the design ``a`` (its wall term ``(1 - S) B``, ``a[:, -3]``,
+    darkened by the blurred disk): for the ball at ``p[:2]`` and the shadow ``p[4:8] = (du,
+    dv, R_s, w)`` (px), its coefficient minus the depth."""
+    from scipy.special import ndtr
+
+    dist = np.hypot(px.u - p[0] - p[4], px.v - p[1] - p[5])
+    return a[:, -3] * px.bg * ndtr((p[6] - dist) / p[7])
 
 
 def _starts(fit, offset: tuple[float, float]) -> list[np.ndarray]:
@@ -198,13 +205,11 @@ def _fit(px, fit, starts: Sequence[np.ndarray]) -> _Fitted | None:
     the costs without and with it (residual variances of the fit without: the gain's unit);
     the best from ``starts``. None where it fails."""
     from scipy.optimize import least_squares
-    from scipy.special import ndtr
 
     def residual(p: np.ndarray, with_cast: bool = True) -> np.ndarray:
         a, fixed = _design(px, fit, p[:2], p[2], p[3])
         if with_cast:
-            dist = np.hypot(px.u - p[0] - p[4], px.v - p[1] - p[5])
-            a = np.column_stack([a, a[:, -3] * px.bg * ndtr((p[6] - dist) / p[7])])
+            a = np.column_stack([a, _column(px, a, p)])
         y = px.grey - fixed
         return y - a @ _coefficients(a, y)
 
@@ -231,9 +236,7 @@ def _fit(px, fit, starts: Sequence[np.ndarray]) -> _Fitted | None:
         return None
     p = best.x
     a, fixed = _design(px, fit, p[:2], p[2], p[3])
-    col = a[:, -3] * px.bg * ndtr((p[6] - np.hypot(px.u - p[0] - p[4], px.v - p[1] - p[5]))
-                                  / p[7])
-    beta = _coefficients(np.column_stack([a, col]), px.grey - fixed)
+    beta = _coefficients(np.column_stack([a, _column(px, a, p)]), px.grey - fixed)
     return p, float(-beta[-1]), float(e0 @ e0) / var, 2.0 * float(best.cost) / var
 
 

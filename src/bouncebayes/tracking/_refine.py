@@ -257,7 +257,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     # _edge_kernel.foreign_sectors)
     du, dv = pu[:n] - cx, pv[:n] - cy
     rho = np.sqrt(du * du + dv * dv)
-    wall = back[:n].copy()
+    wall = np.empty(n)
     _shaded(pu[:n], pv[:n], back[:n], cx, cy, cast, wall)
     keep = np.flatnonzero(~foreign_sectors(grey[:n] - wall, du, dv, rho, band_from)
                           & (rho <= reach))
@@ -279,7 +279,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     res = np.empty(n)
     beta = np.zeros(n_lin)
     r0, x0, y0 = r, cx, cy
-    wall = back.copy()
+    wall = np.empty(n)  # (written by _shaded at each step)
     for it in range(max(n_iter, 1)):
         _shaded(pu, pv, back, cx, cy, cast, wall)
         for k in range(n):
@@ -442,9 +442,7 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
                              exposure, r_free, steps, z0, dzt, gt, dgt, az, el, nodes, inner,
                              occlusion, cast)
         if ok:
-            out[n, :5] = fit[:5]
-            cost[n] = fit[5] / fit[6]
-            out[n, 5] = math.sqrt(cost[n])
+            _store(out, cost, n, fit)
     fitted = cost[np.isfinite(cost)]
     if fitted.size:
         _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z0, dzt, gt,
@@ -479,9 +477,16 @@ def _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z
                              exposure, r_free, n_iter + 1, z0, dzt, gt, dgt, az, el, nodes,
                              inner, occlusion, cast)
         if ok and fit[5] / fit[6] < cost[n]:
-            out[n, :5] = fit[:5]
-            cost[n] = fit[5] / fit[6]
-            out[n, 5] = math.sqrt(cost[n])
+            _store(out, cost, n, fit)
+
+
+@njit(cache=True)
+def _store(out, cost, n, fit):
+    """Fit ``fit`` (:func:`_result`) as row ``n`` of :func:`refine_frames`' ``out`` (centre,
+    radius, formal SEs, RMS residual) and ``cost`` (its mean squared residual)."""
+    out[n, :5] = fit[:5]
+    cost[n] = fit[5] / fit[6]
+    out[n, 5] = math.sqrt(cost[n])
 
 
 @njit(cache=True)
