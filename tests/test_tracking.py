@@ -774,6 +774,7 @@ def pbr_shot(radius: float, sigma: float, exposure: float, **kw):
 
 
 DARK = dict(albedo=0.12, ambient=0.5, wall=170.0, plane=150.0, texture=12.0)
+GLOSSY = dict(specular=1.2, shininess=30.0, limb_u=0.5)
 
 
 def _clear_background(frames, truth, radius):
@@ -831,7 +832,7 @@ def test_the_frames_together_find_the_light_of_a_blurred_ball(shading):
     # draw); glossy (limb darkening 0.5, a Blinn-Phong highlight that saturates) +0.16 % (the
     # radial columns -2.33 %; the 2-D ones with only the saturated pixels' neighbours left out
     # +7.9 %: the highlight's light the blur carries towards the rim)
-    kw = {} if shading == "side-lit" else dict(specular=1.2, shininess=30.0, limb_u=0.5)
+    kw = {} if shading == "side-lit" else GLOSSY
     shot = pbr_shot(10.0, 1.5, 0.0, texture=0.0, seed=0, read_noise=0.0, shot=0.0, **kw)
     fit = track_ball(render(shot)).radius_fit
     lx, ly, lz = np.asarray(shot.light) / np.linalg.norm(shot.light)
@@ -976,12 +977,14 @@ def test_the_balls_shadow_that_hugs_its_edge_is_held(cast, lighting):
     assert "shadow" in cast_message(track)
 
 
-@pytest.mark.parametrize("radius,light,cast", [
-    (5.0, (-0.15, 0.25, 0.95), (0.3, 0.2, 0.6)),   # the paper's camera, lit from near it
-    (6.5, (-0.6, 0.3, 0.75), (0.5, -0.3, 0.5)),    # lit from the side
-    (5.0, (-0.15, 0.25, 0.95), (0.0, 0.0, 0.0)),   # no shadow on the wall: none held
+@pytest.mark.parametrize("radius,light,cast,seed,shading", [
+    (5.0, (-0.15, 0.25, 0.95), (0.3, 0.2, 0.6), 1, {}),   # the paper's camera, lit from near it
+    (6.5, (-0.6, 0.3, 0.75), (0.5, -0.3, 0.5), 1, {}),    # lit from the side
+    (5.0, (-0.15, 0.25, 0.95), (0.0, 0.0, 0.0), 1, {}),   # no shadow on the wall: none held
+    (5.0, (-0.15, 0.25, 0.95), (0.3, 0.2, 0.6), 5, {}),   # two frames of four fit another shape
+    (5.0, (-0.15, 0.25, 0.95), (0.3, 0.2, 0.6), 1, GLOSSY),
 ])
-def test_a_small_balls_shadow_that_hugs_its_edge_is_held(radius, light, cast):
+def test_a_small_balls_shadow_that_hugs_its_edge_is_held(radius, light, cast, seed, shading):
     from render_pbr import Shot, Throw, render
 
     from bouncebayes.tracking import Calibration
@@ -990,12 +993,16 @@ def test_a_small_balls_shadow_that_hugs_its_edge_is_held(radius, light, cast):
     # MJPEG) with the ball's shadow on a wall close behind it. Before, balls under 8 px were
     # not looked at for one: +9.1 % (z 3.8) and +5.6 % (z 2.9) in radius, centres 0.52 and
     # 0.78 px RMS off (the camera's target 0.15), nothing said; with it +0.6 and +0.8 %,
-    # 0.085 and 0.050 px. Over 32 rendered shadows at 5 and 6.5 px (four lights, blur 0.5
-    # and 1.0 px) 24 held, |z| <= 1.3 where held; none on 16 clear clips nor the 32 of
+    # 0.085 and 0.050 px. Seed 5 and the glossy ball were not held until the frames' fits were
+    # judged by their cost with a plausible shadow only and a frame apart tried with the
+    # shapes the others agree on (_cast._cost, _cast._consensus): +9.4 % (z 3.9) and +7.6 %
+    # (z 3.1), centres 0.41 and 0.52 px; now +0.6 and +0.4 %, 0.05 and 0.13 px. Over 32
+    # rendered shadows at 5 and 6.5 px (four lights, blur 0.5 and 1.0 px) 30 held (24
+    # before), |z| <= 1.34 where held; none on 16 clear clips nor the 32 of
     # benchmarks/paper_camera.py
     shot = Shot(width=224, height=64, radius_px=radius, n_frames=120, surface_v=50.0,
-                slope_deg=3.0, sigma_px=0.5, exposure=0.5, supersample=4, seed=1, codec="MJPG",
-                light=light, cast=cast,
+                slope_deg=3.0, sigma_px=0.5, exposure=0.5, supersample=4, seed=seed,
+                codec="MJPG", light=light, cast=cast, **shading,
                 throw=Throw(speed_in=2.0, angle_in=35.0, t_contact=0.05, x_contact=0.05))
     track = track_ball(render(shot))
     found = track.radius_fit.cast
@@ -1030,7 +1037,7 @@ def test_the_shadows_note_says_where_it_lies():
 
 
 @pytest.mark.parametrize("lighting", [
-    {}, dict(specular=1.2, shininess=30.0, limb_u=0.5), dict(mark=0.3), DARK])
+    {}, GLOSSY, dict(mark=0.3), DARK])
 def test_a_ball_without_a_shadow_on_the_wall_gets_none(lighting):
     from render_pbr import Shot, Throw, render
 
