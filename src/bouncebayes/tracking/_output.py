@@ -371,17 +371,23 @@ def _depth_record(tr: Track) -> dict[str, object]:
     change = None if fit is None else depth_change(fit.frames, fit.radii)
     return {"picture_growth": None if change is None else round(change[0], 5),
             "picture_growth_se": None if change is None else round(change[1], 5),
-            "depth_warning": depth_warning(tr)}
+            "depth_warning": _depth_words(fit, change)}
 
 
 def depth_warning(track: Track) -> str | None:
     """In words, where the ball's picture grows or shrinks over the frames (it moves along
     the camera's axis: :func:`._edge.depth_told`) and what that does; None where it does not
     clearly."""
-    from ._edge import depth_change, depth_is_told
+    from ._edge import depth_change
 
     fit = track.radius_fit
-    change = None if fit is None else depth_change(fit.frames, fit.radii)
+    return _depth_words(fit, None if fit is None else depth_change(fit.frames, fit.radii))
+
+
+def _depth_words(fit, change: tuple[float, float] | None) -> str | None:
+    """:func:`depth_warning` from the radius fit and its picture's growth (fraction, SE)."""
+    from ._edge import depth_is_told
+
     if fit is None or change is None or not depth_is_told(change):
         return None
     grow, se = change

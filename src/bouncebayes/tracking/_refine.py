@@ -584,10 +584,10 @@ class _Inputs(NamedTuple):
     blur: tuple[float, float]
     table: tuple[float, float, np.ndarray, np.ndarray]
     nodes: np.ndarray
-    inner: float = 0.0
-    rim: bool = False  # a larger ball's fit: its rim only, with the wall's occlusion term
+    inner: float  # the radius inside which no pixel is fitted (px; :func:`rim_only`)
+    rim: bool  # a larger ball's fit: its rim only, with the wall's occlusion term
     # the ball's shadow on the wall (du, dv, radius, penumbra, depth; px), zeros: none
-    cast: np.ndarray = np.zeros(5)
+    cast: np.ndarray
 
 
 def rim_only(radius: float, sigma: float) -> float:
