@@ -1119,8 +1119,8 @@ def test_a_striped_balls_centres_are_not_stated_better_than_they_are():
     # The same ball with a dark stripe painted on it, turning at 150 rad/s: the shading model
     # has no stripe, and the fitted centres err (truth: the renderer's centres, about their
     # mean) by 0.23-0.25 px here (seeds 2 and 1; the centroids' 0.15-0.16; over
-    # benchmarks/tracking_centres.py's four striped bounces the fitted 0.21 px median against
-    # the centroids' 0.48). Their stated SD, at least their
+    # benchmarks/tracking_centres.py's four striped bounces the fitted 0.23 px median against
+    # the centroids' 0.48; 0.21 before one held a false shadow, 2026-11-29). Their stated SD, at least their
     # disagreement with the edge fits' centres, covers that: measured 0.28 and 0.30 px (the
     # formal errors alone 0.6-0.9x the true error on the benchmark's).
     from render_pbr import render
