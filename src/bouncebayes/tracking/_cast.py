@@ -316,17 +316,18 @@ def _consensus(pxs: dict, ok: dict, sided: dict[int, _Fitted]) -> dict[int, _Fit
     the shape of each of those that lie within it held (from its ball as fitted with the
     shadow and as its free fit ``ok`` found it), the best kept where it is plausible and gains
     ``CAST_MIN_GAIN`` and ``CAST_SHARE`` of what the frame's own shadow gained."""
-    fits = [g[0] for g in sided.values() if _plausible(*g[:2])]
+    fits = {i: g[0] for i, g in sided.items() if _plausible(*g[:2])}
     if not fits:
         return sided
-    middle = np.median(np.array([p[4:6] for p in fits]), axis=0)
-    agree = [p[4:] for p in fits if math.hypot(*(p[4:6] - middle)) <= CAST_AGREE * p[2]]
+    middle = np.median(np.array([p[4:6] for p in fits.values()]), axis=0)
+    agree = {i: p[4:] for i, p in fits.items()
+             if math.hypot(*(p[4:6] - middle)) <= CAST_AGREE * p[2]}
     out = dict(sided)
     for i, g in sided.items():
-        p, f = g[0], ok[i]
-        if _plausible(*g[:2]) and math.hypot(*(p[4:6] - middle)) <= CAST_AGREE * p[2]:
+        if i in agree:
             continue
-        tries = [t for shape in agree for ball in (p[:4], (f.cx, f.cy, f.r, f.sigma))
+        p, f = g[0], ok[i]
+        tries = [t for shape in agree.values() for ball in (p[:4], (f.cx, f.cy, f.r, f.sigma))
                  if (t := _fit(pxs[i], f, [np.concatenate([ball, shape])], held=True))
                  and _plausible(*t[:2])]
         best = min(tries, key=_cost, default=None)
