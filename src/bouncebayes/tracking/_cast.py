@@ -2,7 +2,8 @@
 
 A lamp near the camera's axis casts the ball's shadow on a wall close behind it: a dark disk of
 about the ball's size, offset from it away from the lamp, most of it hidden by the ball and the
-rest a crescent against the ball's rim (a ring light round the lens: a thin halo all round). The
+rest a crescent against the ball's rim (a ring light round the lens: a thin halo all round,
+which is not held: see ``CAST_MIN_OFFSET``). The
 shadow moves with the ball, so the background model (a median over frames) does not hold it, and
 where the crescent is narrow the wall beyond it is the background's, so the polar sectors that
 :func:`._edge_kernel.foreign_sectors` leaves out do not see it either. The edge model then takes
@@ -23,10 +24,10 @@ found most are fitted again with the shadow (the ball's centre, radius and blur 
 shadow's offset, radius and penumbra free; SciPy's least_squares), from the shadow of the frame
 that fits best and from its mirror image (:func:`_one_way_round`), and the shadow is kept where
 it takes ``CAST_MIN_GAIN`` residual variances off most of them, darkens the wall, reaches
-beyond the ball's rim and lies alike in most (:func:`_shape`; a frame whose own shadow does not
-is fitted again with the others' shape held, :func:`_consensus`). Its shape is the median over
-those frames; every fit after that reads the background with it painted in
-(:func:`paint`, :func:`painted`). Written here because no library models a ball's shadow on a
+beyond the ball's rim and lies alike in most, off the ball's centre (:func:`_shape`; a frame
+whose own shadow does not is fitted again with the others' shape held, :func:`_consensus`).
+Its shape is the median over those frames; every fit after that reads the background with it
+painted in (:func:`paint`, :func:`painted`). Written here because no library models a ball's shadow on a
 wall.
 """
 
@@ -53,6 +54,15 @@ SMALL_CAST_DEPTH = 0.2
 # thin margin: at 0.25 it was not held, its centres 0.11 -> 0.52 px) and two lying beside
 # the ball, 1.17 radii off, 0.09 and 0.17 (not held; the radius within 0.9 % either way)
 CAST_MIN_DEPTH = 0.2
+# the least offset of the shadow held (the median over the frames that agree), in radii of the
+# ball: one nearly concentric with it shows as a thin ring all round its rim, which the fits
+# cannot tell from the ball's own dark rim. A striped ball turning about the camera's axis
+# (the stripe a great circle through the centre, so it meets the rim at two opposite points;
+# benchmarks/tracking_centres.py, 15 px) held a "shadow" 0.56 dark, 0.087 radii off (centres
+# 0.217 -> 0.276 px, rebound angle z -0.18 -> -1.39), and the defocus ring above lay 0.07
+# radii off. Every rendered shadow held lay 0.138 radii off or more (the sweeps in
+# docs/tracking.md, offsets 0.14-1.17 radii), and none concentric was held (within 2.4 %)
+CAST_MIN_OFFSET = 0.11
 # the grid's median gain (residual variances) from which the frames are fitted with a shadow.
 # Measured on rendered 10 px balls (three frames each; tests/render_pbr.py): clear balls,
 # side-lit, glossy, striped and dark, 2-20 (median over frames <= 13); shadows offset 0.14-0.57
@@ -353,8 +363,9 @@ def _shape(got: dict[int, _Fitted], n_frames: int
            ) -> tuple[CastShadow, dict[int, np.ndarray], float] | None:
     """The shadow (the median shape) of the frames ``got`` whose fits with it gain
     ``CAST_MIN_GAIN`` and are plausible, where they are most of the ``n_frames``, most of
-    them place it within ``CAST_AGREE`` radii of their median and it takes ``CAST_MIN_DEPTH``
-    of the wall's light or more; their ball centres and median radius. None where not."""
+    them place it within ``CAST_AGREE`` radii of their median, it takes ``CAST_MIN_DEPTH`` of
+    the wall's light or more and lies ``CAST_MIN_OFFSET`` radii or more from the ball's
+    centre; their ball centres and median radius. None where not."""
     kept = {i: (*p[4:], depth, p[2]) for i, (p, depth, cost0, cost1) in got.items()
             if cost0 - cost1 >= CAST_MIN_GAIN and _plausible(p, depth)}
     if 2 * len(kept) <= n_frames:
@@ -366,7 +377,7 @@ def _shape(got: dict[int, _Fitted], n_frames: int
         return None
     du, dv, radius, penumbra, depth, ball = (
         float(x) for x in np.median(np.array([kept[i] for i in agree]), axis=0))
-    if depth < CAST_MIN_DEPTH:
+    if depth < CAST_MIN_DEPTH or math.hypot(du, dv) < CAST_MIN_OFFSET * ball:
         return None
     return (CastShadow(du, dv, radius, penumbra, depth), {i: got[i][0][:2] for i in agree},
             ball)
