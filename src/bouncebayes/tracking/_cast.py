@@ -228,20 +228,21 @@ def _coefficients(a: np.ndarray, y: np.ndarray) -> np.ndarray:
 def _fit(px, fit, starts: Sequence[np.ndarray], held: bool = False) -> _Fitted | None:
     """The frame fitted with the shadow: ``(cx, cy, r, sigma, du, dv, R_s, w)``, its depth, and
     the costs without and with it (residual variances of the fit without: the gain's unit);
-    the best from ``starts``; ``held``: the shadow's shape held as the starts have it. None
-    where it fails."""
+    the best from ``starts``; ``held``: the shadow's shape held as the starts have it (only
+    the ball's four fitted). None where it fails."""
     from scipy.optimize import least_squares
 
-    def residual(p: np.ndarray, with_cast: bool = True) -> np.ndarray:
+    def residual(p: np.ndarray, shape: np.ndarray | None = None) -> np.ndarray:
+        p = p if shape is None else np.concatenate([p, shape])
         a, fixed = _design(px, fit, p[:2], p[2], p[3])
-        if with_cast:
+        if p.size > 4:
             a = np.column_stack([a, _column(px, a, p)])
         y = px.grey - fixed
         return y - a @ _coefficients(a, y)
 
     r = fit.r
     base = np.array([fit.cx, fit.cy, fit.r, fit.sigma])
-    e0 = residual(base, False)
+    e0 = residual(base)
     var = float(e0 @ e0) / e0.size
     # the blur within SIGMA_RANGE of the free fit's (free, it traded against the shadow's
     # penumbra and depth under a 1.5 px blur: 2.9 px, the shadow darker than black)
@@ -249,20 +250,20 @@ def _fit(px, fit, starts: Sequence[np.ndarray], held: bool = False) -> _Fitted |
                    -1.2 * r, 0.5 * r, 0.2])
     hi = np.array([fit.cx + 3, fit.cy + 3, 1.3 * r, SIGMA_RANGE[1] * fit.sigma + 0.1, 1.2 * r,
                    1.2 * r, 1.6 * r, 0.4 * r])
-    best = None
+    best, p = None, np.empty(0)
     for p0 in starts:
-        p0, low, high = np.clip(p0, lo + 1e-6, hi - 1e-6), lo.copy(), hi.copy()
-        if held:  # the shadow's (du, dv, R_s, w) as the start has it
-            low[4:], high[4:] = p0[4:] - 1e-6, p0[4:] + 1e-6
+        p0 = np.clip(p0, lo + 1e-6, hi - 1e-6)
+        # held: the shadow's (du, dv, R_s, w) as the start has it, the ball's four fitted
+        n, shape = (4, p0[4:]) if held else (8, None)
         try:
-            sol = least_squares(residual, p0, bounds=(low, high), x_scale=0.05, max_nfev=60)
+            sol = least_squares(residual, p0[:n], bounds=(lo[:n], hi[:n]), x_scale=0.05,
+                                max_nfev=60, args=(shape,))
         except (np.linalg.LinAlgError, ValueError):
             continue
         if best is None or sol.cost < best.cost:
-            best = sol
+            best, p = sol, (sol.x if shape is None else np.concatenate([sol.x, shape]))
     if best is None:
         return None
-    p = best.x
     a, fixed = _design(px, fit, p[:2], p[2], p[3])
     beta = _coefficients(np.column_stack([a, _column(px, a, p)]), px.grey - fixed)
     return p, float(-beta[-1]), float(e0 @ e0) / var, 2.0 * float(best.cost) / var
