@@ -1388,15 +1388,17 @@ def _shared(args: list[tuple[np.ndarray, np.ndarray, Any, Any]],
     their directions that fits their frames best together and those frames fitted again
     under it (from ``r0``, the starting grid reading ``reach`` px out); the medians of the
     frames that agree."""
-    ok = _alike([f for f in first.values() if f is not None])
-    shadow = [f for f in ok if f.el < _NO_SHADOW]
-    agree = shadow if 2 * len(shadow) > len(ok) else [f for f in ok if f.el >= _NO_SHADOW]
-    light = _shared_light([args[i] for i, f in first.items() if f in shadow], shadow, kappa) \
-        if agree is shadow else (0.0, _NO_SHADOW)
-    if agree is shadow:  # the shadow frames again with that light: their blur and exposure
-        again = [fit_edge(*args[i], r0, light=light, kappa=kappa, reach=reach)
-                 for i, f in first.items() if f in shadow]
-        agree = [f for f in again if f is not None] or shadow
+    fits = {i: f for i, f in first.items() if f is not None}
+    index = list(fits)
+    ok = [index[k] for k in _alike(list(fits.values()))]  # the frames alike
+    shadow = [i for i in ok if fits[i].el < _NO_SHADOW]
+    if 2 * len(shadow) > len(ok):  # the shadow frames again with their light: blur, exposure
+        light = _shared_light([args[i] for i in shadow], [fits[i] for i in shadow], kappa)
+        again = [fit_edge(*args[i], r0, light=light, kappa=kappa, reach=reach) for i in shadow]
+        agree = [f for f in again if f is not None] or [fits[i] for i in shadow]
+    else:
+        light = (0.0, _NO_SHADOW)
+        agree = [fits[i] for i in ok if fits[i].el >= _NO_SHADOW]
     return ((float(np.median([f.sigma for f in agree])),
              float(np.median([f.exposure for f in agree])), *light),
             float(np.median([f.r for f in agree])))
@@ -1411,8 +1413,8 @@ ALIKE_RMS = 1.3  # ... or whose RMS residual is this times the median's or more 
 ALIKE_MIN_RADIUS = 8.0
 
 
-def _alike(fits: list[EdgeFit]) -> list[EdgeFit]:
-    """The fits whose radius is within ``ALIKE`` of their median and whose RMS residual is
+def _alike(fits: list[EdgeFit]) -> list[int]:
+    """The indices of the fits whose radius is within ``ALIKE`` of their median and whose RMS residual is
     under ``ALIKE_RMS`` times their median (all of them where fewer than 3 are, or where that
     median radius is at most ``ALIKE_MIN_RADIUS``): a frame whose
     ball is partly hidden (a frame counter burned in across its path, tests/render_pbr.py's
@@ -1422,13 +1424,14 @@ def _alike(fits: list[EdgeFit]) -> list[EdgeFit]:
     blur and no light, the radius -13 %, the centres 0.3-1.2 px off), nor pull the frames'
     joint fit (uncompressed, held fits 1.5-4 % small at 1.41-1.44 times the median RMS, the
     others' at most 1.08: the joint radius -1.6 %)."""
+    every = list(range(len(fits)))
     if len(fits) < 3:
-        return fits
+        return every
     r, rms = np.median([f.r for f in fits]), np.median([f.rms for f in fits])
     if r <= ALIKE_MIN_RADIUS:
-        return fits
-    alike = [f for f in fits if abs(f.r / r - 1) <= ALIKE and f.rms < ALIKE_RMS * rms]
-    return alike if len(alike) >= 3 else fits
+        return every
+    alike = [k for k, f in enumerate(fits) if abs(f.r / r - 1) <= ALIKE and f.rms < ALIKE_RMS * rms]
+    return alike if len(alike) >= 3 else every
 
 
 def _free_fits(args: Sequence[tuple[Any, Any, Any, Any]], r0: float,
@@ -1468,9 +1471,9 @@ def _joint_alike(args, fits: list[EdgeFit], held: tuple[float, float, float, flo
     (:func:`_alike`: a partly hidden ball's would pull them all): the radius and what the
     frames share, its centres written into ``centres`` (one row per fit); ``med`` and
     ``held`` as given where the joint fit fails."""
-    alike = _alike(fits)
-    keep = [k for k, f in enumerate(fits) if any(f is a for a in alike)]
-    joint = joint_radius([args[k] for k in keep], alike, held, kappa, [gain[k] for k in keep])
+    keep = _alike(fits)
+    joint = joint_radius([args[k] for k in keep], [fits[k] for k in keep], held, kappa,
+                         [gain[k] for k in keep])
     if joint is None:
         return med, held
     centres[keep] = joint.centres

@@ -325,9 +325,9 @@ def _track_ball(frames, config: TrackerConfig, background, *, compiled: bool) ->
     centre, radius, method, contrast = _finish(raw, border, edge_fit, config)
     residual, visible, flag = frame_quality(frames, state, centre, radius, method, contrast,
                                             compiled=compiled)
-    fitted = _fit_ball(frames, state, background is not None, centre, radius, method, flag,
-                       contrast, config, noise)
-    flag = flag | fitted.pop("misfit")
+    fitted, misfit = _fit_ball(frames, state, background is not None, centre, radius, method,
+                               flag, contrast, config, noise)
+    flag = flag | misfit
     # lost and repeated frames, told by the ball's steps (the repeated ones flagged)
     timing = _frame_timing(frames, centre, radius, (method != NOT_FOUND) & ~flag,
                            fitted["radius_fit"], noise)
@@ -392,14 +392,14 @@ def _background(given: np.ndarray | None, config: TrackerConfig, frames: np.ndar
 
 
 def _fit_ball(frames, state, given: bool, centre, radius, method, flag, contrast, config,
-              noise: float) -> dict[str, Any]:
+              noise: float) -> tuple[dict[str, Any], np.ndarray]:
     """The fits after the search, on ``centre`` (moved in place): the edge model's radius
     (:func:`._quality.fit_ball_radius`; ``noise`` the frames', grey levels), its centres'
     offset to the centroids, and the per-frame centre fits (:func:`._refine.refine_centres`). They get the background with the
     ball left out around where they look (:func:`_ball_free_background`), or the one given
     (``given``) as it is. Returns :class:`Track`'s fields of them: ``radius_fit``,
     ``centre_offset`` (the centroids'), ``refined`` (the mask of refined frames) and
-    ``refined_offset``; and ``misfit``, the frames whose per-frame fit misfits (flagged:
+    ``refined_offset``; and the mask of the frames whose per-frame fit misfits (to be flagged:
     :func:`._quality.refit_misfit`)."""
     from ._refine import SMALL_RADIUS, refine_centres, stated_centre_sd
 
@@ -438,7 +438,7 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, contrast
             if small.light is not None and small.light[1] < fit.light[1]:
                 fit = fit._replace(light=small.light)
     return {"radius_fit": fit, "centre_offset": offset, "refined": refined,
-            "refined_offset": shift, "misfit": misfit}
+            "refined_offset": shift}, misfit
 
 
 def _check_frames(frames) -> np.ndarray:
