@@ -12,7 +12,8 @@ explicitly, so that the tracker's edge model is tested on images it was not buil
   ``h = (l + z) / |l + z|``. Optionally (``mark``) a dark stripe painted on it, as
   experimenters mark a ball to see it turn: a great circle through the axis towards the
   camera, the albedo 80 % lower where ``|n . p| < mark / 2`` (``p`` its normal in the image
-  plane), turning at ``spin`` rad/s.
+  plane), turning at ``spin`` rad/s; or (``spot``) a dark spot, a logo, of angular radius
+  ``spot`` whose centre lies ``spot_tilt`` from that axis, turning alike.
 - **Anti-aliasing**: every pixel is integrated on an ``S x S`` sub-grid (default 6), each
   sub-sample's coverage a linear ramp one sub-pixel wide (exact area to well below 0.01 px).
 - **Exposure**: the frame integrates the scene over ``exposure / fps`` seconds centred on
@@ -114,6 +115,8 @@ class Shot:
     limb_u: float = 0.3
     specular: float = 0.0             # Blinn-Phong strength (0: matte)
     mark: float = 0.0                 # width (in n) of a dark stripe painted on the ball (0: none)
+    spot: float = 0.0                 # angular radius (rad) of a dark spot (a logo; 0: none) ...
+    spot_tilt: float = 1.2            # ... its centre this far (rad) from the axis to the camera
     spin: float = 150.0               # rad/s: the stripe's turn about the axis to the camera
     shininess: float = 40.0
     gain: float = 230.0               # grey level of radiance 1
@@ -228,6 +231,12 @@ def _ball(shot: Shot, du: np.ndarray, dv: np.ndarray, sub: float, t: float = 0.0
         phi = 0.6 + shot.spin * t
         off = np.abs(-math.sin(phi) * nx + math.cos(phi) * ny)
         albedo = albedo * (1.0 - 0.8 * np.clip((0.5 * shot.mark - off) / 0.05 + 0.5, 0.0, 1.0))
+    if shot.spot > 0:  # a dark spot near the rim, turning with the ball about the same axis
+        phi, tilt = 0.6 + shot.spin * t, shot.spot_tilt
+        cos_off = (math.sin(tilt) * (math.cos(phi) * nx + math.sin(phi) * ny)
+                   + math.cos(tilt) * nz)
+        off = np.arccos(np.clip(cos_off, -1.0, 1.0))
+        albedo = albedo * (1.0 - 0.8 * np.clip((shot.spot - off) / 0.05 + 0.5, 0.0, 1.0))
     radiance = albedo * (shot.ambient + lam * limb) + spec
     return cover, shot.gain * radiance
 
