@@ -18,8 +18,8 @@ ball (``benchmarks/paper_camera.py``'s ``track_and_fit``: ``track_video`` on the
 For each: the centres' RMS error against the rendered truth (px) and about its mean (the
 part that moves velocities), and the rebound speed's and angle's z-scores against the
 rendered bounce (speed: the kinematics' SE and the scale's stated SD in quadrature). Summary
-per mode and group (unmarked; marked, the stripe; spotted): medians and largest errors, the largest
-scale error, the z-scores' RMS and how many exceed 2 and 3.
+per mode and group (unmarked; marked, the stripe; spotted): medians and largest errors, the
+largest scale error, the z-scores' RMS and how many exceed 2 and 3.
 
 ``python benchmarks/tracking_centres.py [--cache DIR] [--jobs 2]`` writes
 ``benchmarks/results/tracking_centres.json`` (~10 min on 2 cores with the renders cached,

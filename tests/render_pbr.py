@@ -117,7 +117,8 @@ class Shot:
     mark: float = 0.0                 # width (in n) of a dark stripe painted on the ball (0: none)
     spot: float = 0.0                 # angular radius (rad) of a dark spot (a logo; 0: none) ...
     spot_tilt: float = 1.2            # ... its centre this far (rad) from the axis to the camera
-    spin: float = 150.0               # rad/s: the stripe's turn about the axis to the camera
+    spin: float = 150.0               # rad/s: the stripe's (or spot's) turn about the axis to
+    #                                   the camera
     shininess: float = 40.0
     gain: float = 230.0               # grey level of radiance 1
     # background (grey levels)

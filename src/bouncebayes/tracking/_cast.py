@@ -27,8 +27,8 @@ it takes ``CAST_MIN_GAIN`` residual variances off most of them, darkens the wall
 beyond the ball's rim and lies alike in most, off the ball's centre (:func:`_shape`; a frame
 whose own shadow does not is fitted again with the others' shape held, :func:`_consensus`).
 Its shape is the median over those frames; every fit after that reads the background with it
-painted in (:func:`paint`, :func:`painted`). Written here because no library models a ball's shadow on a
-wall.
+painted in (:func:`paint`, :func:`painted`). Written here because no library models a ball's
+shadow on a wall.
 """
 
 from __future__ import annotations

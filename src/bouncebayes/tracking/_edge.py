@@ -1424,10 +1424,10 @@ ALIKE_MIN_RADIUS = 8.0
 
 
 def _alike(fits: list[EdgeFit]) -> list[int]:
-    """The indices of the fits whose radius is within ``ALIKE`` of their median and whose RMS residual is
-    under ``ALIKE_RMS`` times their median (all of them where fewer than 3 are, or where that
-    median radius is at most ``ALIKE_MIN_RADIUS``): a frame whose
-    ball is partly hidden (a frame counter burned in across its path, tests/render_pbr.py's
+    """The indices of the fits whose radius is within ``ALIKE`` of their median and whose RMS
+    residual is under ``ALIKE_RMS`` times their median (all of them where fewer than 3 are, or
+    where that median radius is at most ``ALIKE_MIN_RADIUS``): a frame whose ball is partly
+    hidden (a frame counter burned in across its path, tests/render_pbr.py's
     scene, MJPEG: free fits' radii -34 and -18 %, blurs 1.82 px against 0.69-0.75, neither
     with the light's shadow) must not set the blur and light the others share (those two and
     a third without the shadow outvoted two with it: every frame then fitted with a 1.82 px
