@@ -760,15 +760,18 @@ def test_track_command_option_errors_are_one_clear_message(tmp_path):
 # and the bounce's true rebound velocity.
 
 
-def pbr_shot(radius: float, sigma: float, exposure: float, **kw):
-    """A 72-frame bounce in which the ball moves ~1.5 px per frame whatever its size."""
+def pbr_shot(radius: float, sigma: float, exposure: float, n_frames: int = 72,
+             t_contact: float = 0.040, **kw):
+    """A bounce (72 frames, the impact at 40 ms, by default) in which the ball moves ~1.5 px
+    per frame whatever its size; 90 frames with the impact at 45 ms are the scenes of
+    benchmarks/tracking_accuracy.py (``shot_for``) and tracking_centres.py."""
     from render_pbr import Shot, Throw
 
     width, height = int(max(160, 16 * radius)), int(max(96, 10 * radius))
     mpp = 0.0256 / (2 * radius)
-    throw = Throw(speed_in=1.5 * mpp * 1000.0 / 0.8, angle_in=50.0, t_contact=0.040,
+    throw = Throw(speed_in=1.5 * mpp * 1000.0 / 0.8, angle_in=50.0, t_contact=t_contact,
                   x_contact=0.5 * width * mpp)
-    return Shot(width=width, height=height, radius_px=radius, n_frames=72, slope_deg=0.0,
+    return Shot(width=width, height=height, radius_px=radius, n_frames=n_frames, slope_deg=0.0,
                 surface_v=height - 8.0, sigma_px=sigma, exposure=exposure, supersample=4,
                 throw=throw, **kw)
 
@@ -1050,18 +1053,14 @@ def test_a_ring_nearly_concentric_with_the_ball_is_not_held_as_its_shadow():
 
 
 def test_a_striped_ball_turning_about_the_cameras_axis_gets_no_shadow():
-    from render_pbr import Shot, Throw, render
+    from render_pbr import render
 
     # benchmarks/tracking_centres.py's striped 15 px ball (seed 2; no shadow in the scene):
     # its stripe, a great circle through the centre turning at 150 rad/s, meets the rim at two
     # opposite points, and the fits held it as a ring 0.56 dark, 0.087 radii off (centres
     # 0.217 -> 0.276 px). Expected: no shadow (CAST_MIN_OFFSET), and the radius within the
     # stated scale SD and 1 % (the benchmark's 0.6 % before)
-    mpp = 0.0256 / 30.0
-    shot = Shot(width=240, height=150, radius_px=15.0, n_frames=90, slope_deg=0.0,
-                surface_v=142.0, sigma_px=0.7, exposure=0.3, supersample=4, seed=2, mark=0.25,
-                throw=Throw(speed_in=1.5 * mpp * 1000.0 / 0.8, angle_in=50.0,
-                            t_contact=0.045, x_contact=120 * mpp))
+    shot = pbr_shot(15.0, 0.7, 0.3, n_frames=90, t_contact=0.045, seed=2, mark=0.25)
     track = track_ball(render(shot))
     assert track.radius_fit.cast is None
     error = track.ball_radius / 15.0 - 1
@@ -1088,18 +1087,14 @@ def test_the_shadows_note_says_where_it_lies():
 
 
 def test_a_logo_turning_near_the_rim_does_not_set_the_frames_shared_blur():
-    from render_pbr import Shot, Throw, render
+    from render_pbr import render
 
     # A dark spot near the rim (a logo, 0.5 rad, its centre 1.2 rad from the axis to the
     # camera) turning with a 10 px ball: the frames together, which share one shading, took
     # their blur from 0.77 to 1.54 px and the radius -15 % (the frames' median -2.0 %).
     # Expected: the frames' median kept (_edge.JOINT_BLUR_AGREE), the radius within 4 % and
     # two stated SDs (truth: the renderer's radius)
-    mpp = 0.0256 / 20.0
-    shot = Shot(width=160, height=100, radius_px=10.0, n_frames=90, slope_deg=0.0,
-                surface_v=92.0, sigma_px=0.7, exposure=0.3, supersample=4, seed=1, spot=0.5,
-                throw=Throw(speed_in=1.5 * mpp * 1000.0 / 0.8, angle_in=50.0,
-                            t_contact=0.045, x_contact=80 * mpp))
+    shot = pbr_shot(10.0, 0.7, 0.3, n_frames=90, t_contact=0.045, seed=1, spot=0.5)
     track = track_ball(render(shot))
     error = track.ball_radius / 10.0 - 1
     assert abs(error) < min(0.04, 2 * Calibration.from_track(shot.diameter_m, track).relative_sd)

@@ -80,8 +80,8 @@ CAST_AGREE = 0.15
 CAST_SIDE = 5.0
 # a frame whose shadow is not plausible or lies apart from the others' is fitted again with the
 # shape of each frame that agrees held, and takes the best where it gains CAST_MIN_GAIN and
-# CAST_SHARE of what its own shadow gained (the paper's camera, a 5 px ball: one frame of four fitted a
-# smaller shadow 1.2 px further out, gain 84; the others' shape held gained 70 there)
+# CAST_SHARE of what its own shadow gained (the paper's camera, a 5 px ball: one frame of four
+# fitted a smaller shadow 1.2 px further out, gain 84; the others' shape held gained 70 there)
 CAST_SHARE = 0.5
 # free fits fitted again with the shadow (those where the grid found most): with 3 of 5 the
 # benchmark's clip (tests/video_helpers.py, whose soft shadow darkens the ball too) had one
