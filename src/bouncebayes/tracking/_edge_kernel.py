@@ -900,6 +900,32 @@ SECTOR_REACH = 2  # sectors either side of one left out that go with it (a shado
 #                   the rim is wider than on the band outside it)
 
 
+_TAN_15 = np.tan(np.radians(np.arange(15.0, 90.0, 15.0)))  # the sectors' edges in a quadrant
+
+
+@njit(cache=True)
+def sector_of(du, dv):
+    """The polar sector (of ``SECTORS``, 15 degrees each) of a pixel at offset ``(du, dv)``
+    from the centre: ``floor((atan2(dv, du) + pi) / 15 degrees)``, by comparisons with the
+    sectors' edges in the quadrant instead of ``atan2`` (~5x faster; the per-frame fits take
+    it for every pixel)."""
+    x, y = -du, -dv  # atan2(dv, du) + pi is the angle of (-du, -dv) in [0, 2 pi)
+    if x > 0.0 and y >= 0.0:
+        q = 0
+    elif x <= 0.0 and y > 0.0:
+        q, x, y = 1, y, -x
+    elif x < 0.0 and y <= 0.0:
+        q, x, y = 2, -x, -y
+    elif x >= 0.0 and y < 0.0:
+        q, x, y = 3, -y, x
+    else:  # the centre itself: atan2(0, 0) = 0
+        return SECTORS // 2
+    k = 0
+    while k < 5 and y >= x * _TAN_15[k]:
+        k += 1
+    return (6 * q + k) % SECTORS
+
+
 @njit(cache=True)
 def foreign_sectors(res, du, dv, rho, band_from):
     """Where the wall beside the ball is not the background model's, for the edge model's and
@@ -917,8 +943,7 @@ def foreign_sectors(res, du, dv, rho, band_from):
     sector = np.empty(n, np.int64)
     nb = 0
     for i in range(n):
-        a = (math.atan2(dv[i], du[i]) + math.pi) / (2.0 * math.pi)
-        sector[i] = int(a * SECTORS) % SECTORS
+        sector[i] = sector_of(du[i], dv[i])
         if rho[i] >= band_from:
             nb += 1
     if nb < 4 * SECTORS:
