@@ -245,7 +245,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     painted into the background at each step's centre (held, not differentiated). Pixels in
     the polar sectors ``drop`` (about the starting centre; :data:`SECTORS` booleans) are left
     out; ``score`` (as many floats) is written with each sector's misfit after the last step
-    (:func:`_sector_misfit`; 0 with ``n_iter = 0``)."""
+    (:func:`_sector_misfit`; not written with ``n_iter = 0`` or where the fit fails)."""
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
@@ -424,8 +424,9 @@ def _fit_clean(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
                gt, dgt, az, el, nodes, inner, occlusion, cast):
     """:func:`_fit_frame` (its arguments), and where a polar sector of the ball's rim misfits by
     more than ``MISFIT_SECTOR`` of its contrast, again from that fit's centre without the run
-    of sectors about the worst that misfit the same way (``n_iter + 1`` steps; up to
-    ``MISFIT_ROUNDS`` times and ``MISFIT_SECTORS`` sectors in all; kept where it succeeds)."""
+    of sectors about the worst (:func:`_grow_run`; ``n_iter + 1`` steps, up to
+    ``MISFIT_ROUNDS`` times and ``MISFIT_SECTORS`` sectors in all; kept where it succeeds).
+    Not where the fit reads beyond the frame (:func:`_in_frame`)."""
     score = np.zeros(SECTORS)
     drop = np.zeros(SECTORS, np.bool_)
     ok, fit = _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter,
@@ -734,11 +735,11 @@ def _velocities(centre: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """The ball's velocity (px per frame) at the frames ``idx`` from its ``centre`` in the
     frames before and after (one-sided at the video's ends; 0 where either is not found):
     their central difference, or where one of the two one-sided differences is more than
-    ``VELOCITY_JUMP`` times the other, the smaller. No impact does that; a ball that jumps
-    does (`benchmarks/tracking.py` repeats a clip: the last frame's velocity came out the
-    length of the whole flight, and the exposure's smear spread its fit over ~30 000 pixels:
-    those frames' centres 2.6 px off, 48 of 4000, the RMS error 0.05 -> 0.21 px, and each
-    fit ~5 ms). Taking the smaller at the impact as well (where the two differ by more than
+    ``VELOCITY_JUMP`` times the other, the smaller. An impact does that only where the ball
+    keeps less than a quarter of its speed; a ball that jumps does (`benchmarks/tracking.py`
+    repeats a clip: the last frame's velocity came out the length of the whole flight, and
+    the exposure's smear spread its fit over ~30 000 pixels: the last frame of each repeat
+    2.6 px off, the RMS error over 4000 frames 0.05 -> 0.21 px, and each such fit ~5 ms). Taking the smaller at the impact as well (where the two differ by more than
     half the larger) made the impact frame worse under a long exposure: a sharp side-lit 10
     px ball of `benchmarks/tracking_accuracy.py` at 80 %, centres 0.030 -> 0.063 px."""
     found = ~np.isnan(centre[:, 0])
