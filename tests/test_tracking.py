@@ -1137,6 +1137,8 @@ def test_the_run_of_misfit_sectors_left_out_reaches_one_past_each_end_and_is_bou
 def test_a_logo_turning_near_the_rim_moves_neither_the_shared_blur_nor_the_centres():
     from render_pbr import render
 
+    from bouncebayes.tracking import radius_warning
+
     # A dark spot near the rim (a logo, 0.5 rad, its centre 1.2 rad from the axis to the
     # camera) turning with a 10 px ball: the frames together, which share one shading, took
     # their blur from 0.77 to 1.54 px and the radius -15 % (the frames' median -2.0 %).
@@ -1154,6 +1156,8 @@ def test_a_logo_turning_near_the_rim_moves_neither_the_shared_blur_nor_the_centr
     centres = track.centre[track.trusted] - shot.true_centres()[track.trusted]
     assert rms(centres) < 0.25
     assert 0 < (~track.trusted).sum() < 30
+    # and said with the radius (20 of 90 flagged, _output.MISFIT_WARNING a fifth)
+    assert "logo" in radius_warning(track)
 
 
 @pytest.mark.parametrize("lighting", [
