@@ -1111,6 +1111,20 @@ def test_the_velocities_the_per_frame_fits_smear_by_take_the_slower_side_where_t
     np.testing.assert_array_equal(vel[14], [0.0, 0.0])
 
 
+def test_the_polar_sector_by_comparisons_is_the_one_atan2_gives():
+    from bouncebayes.tracking._edge_kernel import SECTORS, sector_of
+
+    # expected: the independent formula it replaces, floor((atan2(dv, du) + pi) / (2 pi / 24)),
+    # on random offsets and on sectors' edges given exactly (the axes and the diagonals; an
+    # edge from cos and sin, 6e-17 off the axis, can round either way)
+    rng = np.random.default_rng(3)
+    points = [*rng.normal(size=(5000, 2)), (1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1),
+              (0, -1), (1, -1)]
+    for du, dv in points:
+        assert sector_of(du, dv) == int((math.atan2(dv, du) + math.pi) / (2 * math.pi)
+                                        * SECTORS) % SECTORS
+
+
 def test_the_run_of_misfit_sectors_left_out_reaches_one_past_each_end_and_is_bounded():
     from bouncebayes.tracking._refine import MISFIT_SECTOR, MISFIT_SECTORS, _grow_run
 

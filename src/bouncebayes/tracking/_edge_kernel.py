@@ -907,8 +907,8 @@ _TAN_15 = np.tan(np.radians(np.arange(15.0, 90.0, 15.0)))  # the sectors' edges 
 def sector_of(du, dv):
     """The polar sector (of ``SECTORS``, 15 degrees each) of a pixel at offset ``(du, dv)``
     from the centre: ``floor((atan2(dv, du) + pi) / 15 degrees)``, by comparisons with the
-    sectors' edges in the quadrant instead of ``atan2`` (~5x faster; the per-frame fits take
-    it for every pixel)."""
+    sectors' edges in the quadrant instead of ``atan2`` (1.8 against 31 ns a pixel, compiled;
+    the per-frame fits take it for many pixels of every frame)."""
     x, y = -du, -dv  # atan2(dv, du) + pi is the angle of (-du, -dv) in [0, 2 pi)
     if x > 0.0 and y >= 0.0:
         q = 0

@@ -519,8 +519,8 @@ MISFIT_WARNING = 0.2
 def _misfit_words(track: Track) -> str | None:
     """A sentence where ``MISFIT_WARNING`` or more of the frames the ball was found in are
     flagged; None where fewer."""
-    found = ~np.isnan(track.centre[:, 0])
-    n_found, n_flag = int(found.sum()), int((track.flag & found).sum())
+    n_found = int(track.found.sum())
+    n_flag = n_found - int(track.trusted.sum())
     if n_found == 0 or n_flag < MISFIT_WARNING * n_found:
         return None
     return (f"{n_flag} of the {n_found} frames the ball was found in do not fit the ball model "
