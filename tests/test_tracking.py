@@ -1059,13 +1059,15 @@ def test_a_striped_ball_turning_about_the_cameras_axis_gets_no_shadow():
     # its stripe, a great circle through the centre turning at 150 rad/s, meets the rim at two
     # opposite points, and the fits held it as a ring 0.56 dark, 0.087 radii off (centres
     # 0.217 -> 0.276 px). Expected: no shadow (CAST_MIN_OFFSET), and the radius within the
-    # stated scale SD and 1 % (the benchmark's 0.6 % before)
+    # stated scale SD and 1 % (the benchmark's 0.6 % before, +0.5 % since the edge model
+    # leaves out the rim's sectors the stripe misfits, _edge.EDGE_MISFIT; the centres then
+    # 0.255 px, the rim's radius they hold moved by 1.1 %)
     shot = pbr_shot(15.0, 0.7, 0.3, n_frames=90, t_contact=0.045, seed=2, mark=0.25)
     track = track_ball(render(shot))
     assert track.radius_fit.cast is None
     error = track.ball_radius / 15.0 - 1
     assert abs(error) < min(0.01, 2 * Calibration.from_track(shot.diameter_m, track).relative_sd)
-    assert rms((track.centre - shot.true_centres())[track.trusted]) < 0.25
+    assert rms((track.centre - shot.true_centres())[track.trusted]) < 0.27
 
 
 def test_the_shadows_note_says_where_it_lies():
@@ -1126,7 +1128,7 @@ def test_the_polar_sector_by_comparisons_is_the_one_atan2_gives():
 
 
 def test_the_run_of_misfit_sectors_left_out_reaches_one_past_each_end_and_is_bounded():
-    from bouncebayes.tracking._refine import MISFIT_SECTOR, MISFIT_SECTORS, _grow_run
+    from bouncebayes.tracking._edge_kernel import MISFIT_SECTOR, MISFIT_SECTORS, grow_run
 
     # expected, by hand: from the worst sector the run goes each way while the misfit is at
     # least half MISFIT_SECTOR, whatever its sign, and takes one sector more each side
@@ -1135,17 +1137,29 @@ def test_the_run_of_misfit_sectors_left_out_reaches_one_past_each_end_and_is_bou
     score[7] = 0.6 * MISFIT_SECTOR
     score[8] = 0.4 * MISFIT_SECTOR
     drop = np.zeros(24, bool)
-    assert _grow_run(score, 4, drop)
+    assert grow_run(score, 4, drop)
     assert np.flatnonzero(drop).tolist() == [2, 3, 4, 5, 6, 7, 8]
     # round the circle: sector 0's run takes in 23
     drop = np.zeros(24, bool)
-    assert _grow_run(np.roll(score, -4), 0, drop)
+    assert grow_run(np.roll(score, -4), 0, drop)
     assert np.flatnonzero(drop).tolist() == [0, 1, 2, 3, 4, 22, 23]
     # a run longer than MISFIT_SECTORS in all leaves the sectors as they were
     drop = np.zeros(24, bool)
     drop[[12, 13, 14, 15]] = True
-    assert not _grow_run(score, 4, drop)
+    assert not grow_run(score, 4, drop)
     assert drop.sum() == 4 and MISFIT_SECTORS < 11
+
+
+def test_the_pixels_of_the_sectors_left_out_are_those_in_them():
+    from bouncebayes.tracking._edge_kernel import SECTORS, in_sectors
+
+    # expected, by hand: sector j holds atan2(dv, du) + pi from 15 j to 15 (j + 1) degrees
+    # (sector_of), so a point at 7.5 + 15 j degrees of that lies in sector j
+    angle = np.radians(7.5 + 15.0 * np.arange(SECTORS)) - np.pi
+    du, dv = 4.0 * np.cos(angle), 4.0 * np.sin(angle)
+    drop = np.zeros(SECTORS, bool)
+    drop[[0, 5, 23]] = True
+    assert np.flatnonzero(in_sectors(du, dv, drop)).tolist() == [0, 5, 23]
 
 
 def test_a_logo_turning_near_the_rim_moves_neither_the_shared_blur_nor_the_centres():
@@ -1157,11 +1171,12 @@ def test_a_logo_turning_near_the_rim_moves_neither_the_shared_blur_nor_the_centr
     # camera) turning with a 10 px ball: the frames together, which share one shading, took
     # their blur from 0.77 to 1.54 px and the radius -15 % (the frames' median -2.0 %).
     # Expected: the frames' median kept (_edge.JOINT_BLUR_AGREE), the radius within 4 % and
-    # two stated SDs (truth: the renderer's radius)
+    # two stated SDs (truth: the renderer's radius); -2.0 % so, and -0.9 % since the edge
+    # model leaves out the rim's sectors the logo misfits (_edge.EDGE_MISFIT): within 1.5 %
     shot = pbr_shot(10.0, 0.7, 0.3, n_frames=90, t_contact=0.045, seed=1, spot=0.5)
     track = track_ball(render(shot))
     error = track.ball_radius / 10.0 - 1
-    assert abs(error) < min(0.04, 2 * Calibration.from_track(shot.diameter_m, track).relative_sd)
+    assert abs(error) < min(0.015, 2 * Calibration.from_track(shot.diameter_m, track).relative_sd)
     assert track.radius_fit.sigma < 1.0
     # and the per-frame fits followed the bite the logo takes out of the rim: the trusted
     # centres 0.715 px RMS from the renderer's (2.91 px at most), none flagged. With the rim's

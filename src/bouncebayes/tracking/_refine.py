@@ -70,8 +70,9 @@ import numpy as np
 from numba import njit
 
 from ._edge import median_and_se, spread
-from ._edge_kernel import (BAND_BLURS, BAND_PX, SECTORS, _cho_solve, _cholesky, _shadow,
-                           foreign_sectors, sector_of)
+from ._edge_kernel import (BAND_BLURS, BAND_PX, MISFIT_ROUNDS, MISFIT_SECTOR, SECTORS, _cho_solve,
+                           _cholesky, _shadow, foreign_sectors, grow_run, sector_misfit,
+                           sector_of)
 
 SMALL_RADIUS = 8.0   # px: balls up to this radius are fitted over their whole disk, and the
 #                      fit's radius is the ball's; larger ones over their rim only (INNER_BLURS),
@@ -126,24 +127,6 @@ SE_FACTOR = 2.0      # the stated per-frame SD of refined centres: this times th
 #   speed or height (the same in every lighting; the rebound angle's error, ~0.4 degrees in the
 #   worst clips, did not shrink with the shadow columns while the formal SE did): with 1.5 the
 #   rebound angle's z-scores had a mean square of 1.32 (largest 2.94), with 2.0 0.75 (2.21)
-# a frame's fit whose pixels inside the blurred rim misfit, in one of the rim's polar sectors
-# (_edge_kernel.SECTORS, 15 degrees each), by more than MISFIT_SECTOR of the ball's contrast
-# in the mean is fitted again without the run of sectors about the worst (_grow_run), up to
-# MISFIT_ROUNDS times and MISFIT_SECTORS sectors in all (_fit_clean): a logo near the rim
-# takes a bite out of it that the fit follows. benchmarks/tracking_centres.py's 8 bounces of
-# a side-lit 10-15 px ball with a dark spot of 0.3-0.5 rad turning near its rim: centres
-# 0.24-0.72 -> 0.09-0.23 px (median 0.44 -> 0.14), 8 of 8 accepted (7), rebound angle |z|
-# at most 3.24 -> 2.65, speed 2.53 -> 2.00; 0.15 and 0.3 gave medians of 0.15 and 0.17 px
-# (largest 0.32 and 0.25). A clear ball's worst sector misfits by 0.02-0.03 of its contrast
-# in the median frame (at most 0.42 in a frame, six of the benchmark's bounces probed): its 48
-# clear bounces came out alike (0.035 -> 0.029 px in one, the rest within 0.001 px); the
-# striped balls 0.21 -> 0.23 px (median), rebound angle |z| at most 0.39 -> 1.39. Not where
-# the fit's pixels reach beyond the frame (_in_frame): a dark ball entering it whose shadow
-# merges with it moved 2-3.7 px further towards the shadow with the true rim's sectors left
-# out (test_a_dark_balls_shadow_merged_with_it_is_not_taken_for_the_ball)
-MISFIT_SECTOR = 0.2
-MISFIT_SECTORS = 10
-MISFIT_ROUNDS = 3
 VELOCITY_JUMP = 4.0  # _velocities: one one-sided difference this many times the other
 _INV_SQRT_2PI = 1.0 / math.sqrt(2.0 * math.pi)
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
@@ -245,7 +228,8 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     painted into the background at each step's centre (held, not differentiated). Pixels in
     the polar sectors ``drop`` (about the starting centre; :data:`SECTORS` booleans) are left
     out; ``score`` (as many floats) is written with each sector's misfit after the last step
-    (:func:`_sector_misfit`; not written with ``n_iter = 0`` or where the fit fails)."""
+    (:func:`._edge_kernel.sector_misfit`; not written with ``n_iter = 0`` or where the fit
+    fails)."""
     h, w = frame.shape
     speed = math.hypot(vx, vy)
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
@@ -379,7 +363,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
             beta[q] += delta[n_nl + q]
         if math.hypot(cx - x0, cy - y0) > 0.5 * r0:  # diverged: not this ball
             return False, _result(cx, cy, r, 0.0, 0.0, 0.0, 0, 0.0, 0.0)
-    _sector_misfit(res, grey, wall, aux[:, 0], pu - cx, pv - cy, r, score)
+    sector_misfit(res, grey, wall, aux[:, 0], pu - cx, pv - cy, r, score)
     # the centre's formal standard errors, from the last step's residual and normal equations
     var = 0.0
     for k in range(n):
@@ -395,36 +379,11 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
 
 
 @njit(cache=True)
-def _sector_misfit(res, grey, wall, step, du, dv, r, score):
-    """``score[j]``: the mean residual ``res`` of polar sector ``j``'s pixels inside the
-    blurred rim (``step`` over a half) and beyond half the radius ``r`` from the centre
-    (offsets ``du, dv``), over the ball's contrast there (the mean of ``|grey - wall|``); 0
-    where a sector has fewer than 3 such pixels."""
-    total = np.zeros(SECTORS)
-    count = np.zeros(SECTORS)
-    contrast, m = 0.0, 0
-    for k in range(res.size):
-        if step[k] > 0.5 and du[k] * du[k] + dv[k] * dv[k] > 0.25 * r * r:
-            j = sector_of(du[k], dv[k])
-            total[j] += res[k]
-            count[j] += 1.0
-            contrast += abs(grey[k] - wall[k])
-            m += 1
-    score[:] = 0.0
-    if m == 0 or contrast <= 0.0:
-        return
-    contrast /= m
-    for j in range(SECTORS):
-        if count[j] >= 3.0:
-            score[j] = total[j] / count[j] / contrast
-
-
-@njit(cache=True)
 def _fit_clean(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_iter, z0, dzt,
                gt, dgt, az, el, nodes, inner, occlusion, cast):
     """:func:`_fit_frame` (its arguments), and where a polar sector of the ball's rim misfits by
     more than ``MISFIT_SECTOR`` of its contrast, again from that fit's centre without the run
-    of sectors about the worst (:func:`_grow_run`; ``n_iter + 1`` steps, up to
+    of sectors about the worst (:func:`._edge_kernel.grow_run`; ``n_iter + 1`` steps, up to
     ``MISFIT_ROUNDS`` times and ``MISFIT_SECTORS`` sectors in all; kept where it succeeds).
     Not where the fit reads beyond the frame (:func:`_in_frame`)."""
     score = np.zeros(SECTORS)
@@ -436,7 +395,7 @@ def _fit_clean(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     first = fit
     for _ in range(MISFIT_ROUNDS):
         worst = int(np.argmax(np.abs(score)))
-        if abs(score[worst]) <= MISFIT_SECTOR or not _grow_run(score, worst, drop):
+        if abs(score[worst]) <= MISFIT_SECTOR or not grow_run(score, worst, drop):
             break
         ok2, fit2 = _fit_frame(frame, bg, gain, fit[0], fit[1], vx, vy, fit[2], sigma, exposure,
                                r_free, n_iter + 1, z0, dzt, gt, dgt, az, el, nodes, inner,
@@ -457,25 +416,6 @@ def _in_frame(shape, cx, cy, r, sigma):
     reach = r + REACH_PX + REACH_BLURS * math.sqrt(sigma * sigma + 1.0 / 12.0)
     return (cx - reach >= 0.0 and cy - reach >= 0.0 and cx + reach <= shape[1] - 1.0
             and cy + reach <= shape[0] - 1.0)
-
-
-@njit(cache=True)
-def _grow_run(score, worst, drop):
-    """Add to ``drop`` the run of sectors about ``worst`` whose ``score`` is at least half of
-    ``MISFIT_SECTOR`` either way, and one more each side; False (``drop`` unchanged) where
-    that would leave out more than ``MISFIT_SECTORS`` in all."""
-    new = drop.copy()
-    for step in (-1, 1):
-        j = worst
-        for _ in range(SECTORS):
-            new[j % SECTORS] = True
-            if abs(score[j % SECTORS]) < 0.5 * MISFIT_SECTOR:
-                break
-            j += step
-    if new.sum() > MISFIT_SECTORS:
-        return False
-    drop[:] = new
-    return True
 
 
 @njit(cache=True)
