@@ -159,7 +159,7 @@ JOINT_RMS = 2.5
 # takes a bite out of it that the radius follows. The clear balls' fits misfit by 0.02-0.10 at
 # most in any sector (benchmarks/tracking_accuracy.py's 88 scenes and tracking_centres.py's 48
 # clear bounces: every radius unchanged); tracking_centres.py's striped and spotted balls
-# (radius 10-15 px, a stripe 0.25 rad wide, spots of 0.3 and 0.5 rad): docs/tracking.md §3.
+# (radius 10-15 px, a stripe 0.25 rad wide, spots of 0.3 and 0.5 rad): docs/tracking.md §1.
 # (._refine's centres use ._edge_kernel.MISFIT_SECTOR, 0.2; the radius gained more at 0.12)
 EDGE_MISFIT = 0.12
 # The wall's occlusion term (._edge_kernel._row: the ball hides the wall before the lens blurs
