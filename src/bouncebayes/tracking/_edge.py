@@ -215,7 +215,8 @@ CENTRE_FIT_BLUR = 0.2
 UNCERTAIN_RADIUS = 0.02  # relative SD of the radius above which a warning says to give a length
 
 
-EDGE_MODEL, SMALL_BALL_FIT = "edge model", "small-ball fit"  # RadiusFit.method
+# RadiusFit.method
+EDGE_MODEL, SMALL_BALL_FIT, JOINT_FIT = "edge model", "small-ball fit", "frames' joint fit"
 # Systematic error of the small-ball fit's radius (._refine; a ball of radius <= 8 px with its
 # blur <= SMALL_FIT_BLUR of it), px, in quadrature with its scatter across frames: over the 32
 # clips of benchmarks/paper_camera.py and the 17 scenarios of benchmarks/tracking_accuracy.py
@@ -245,6 +246,22 @@ SMALL_FIT_BLURRED_FROM, SMALL_FIT_BLURRED_TO = 0.17, 0.25
 # Two glossy balls there, whose edge radius is 17 % small (fitted blur 0.42 of it), stay with
 # the edge model and its stated 28-30 %
 SMALL_FIT_BLUR = 0.4
+# A small ball (under SHADOW_MIN_RADIUS) blurred by more than MORE_FRAMES_MAX_BLUR of its radius:
+# MAX_FRAMES_BLURRED frames fitted together with the radius and the blur free
+# (_small_blur_free). What tells the radius from the blur and the shading there is the wall's
+# texture the ball hides: the Cramer-Rao bound of the radius (25 frames, tests/render_pbr.py,
+# 5 px, blur 1.5 px; _joint_radius_sd) is 0.56-0.71 % on the textured wall of
+# benchmarks/tracking_accuracy.py and 3.6-5.5 % on a plain one. So the joint radius is kept
+# only where that bound with each frame's background made flat is JOINT_TEXTURE_GAIN times
+# the bound or more (textured: 3.9 against 0.67 %; plain: 0.83 against 0.83 %, the fit +11 %
+# off there), its SE the bound and JOINT_FIT_SYSTEMATIC_REL of the radius in quadrature
+# (method JOINT_FIT): on benchmarks/tracking_small_blur.py's 43 rendered textured-wall scenes
+# where it ran (radius 5 and 6.5 px, blur 1.0-1.5 px, side-lit, glossy and dark balls,
+# exposure 0 and 50 %, two seeds) the radius came out -3.37 to -0.46 % (mean -1.45 %, 35
+# within 2 %), on tracking_accuracy.py's six at 5 px -0.92 to +0.39 % (docs/tracking.md §3):
+# 2 % gives them |z| <= 1.65 (1 % gave up to 3.14)
+JOINT_TEXTURE_GAIN = 2.0
+JOINT_FIT_SYSTEMATIC_REL = 0.02
 # Strong JPEG compression (MJPEG, JPEG frames; the quality read by ._video.jpeg_quality): the
 # codec quantises each 8 x 8 block, which rings at the ball's edge. Rendered balls
 # (tests/render_pbr.py, side-lit, glossy and dark, blur 0 and 0.7 px, seeds 8 and 3), each
@@ -381,16 +398,21 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
     ``radius_se_px`` and the systematic error in quadrature: the edge model's
     (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` and the blur term
     ``BLUR_PX3 * blur_px^3`` and :func:`small_fit_blurred_px` in quadrature where ``method``
-    is ``SMALL_BALL_FIT``; the
+    is ``SMALL_BALL_FIT``, or ``JOINT_FIT_SYSTEMATIC_REL`` of the radius where it is
+    ``JOINT_FIT``; the
     frames' compression (:func:`compression_px`: their JPEG quality, or the video's bits per
     pixel); ``FOREIGN_REL_SD`` where ``foreign`` (the fraction of the frames fitted with
     sides of the rim left out, ``RadiusFit.foreign``) is ``FOREIGN_WARNING`` or more; and half
     of ``depth``, the ball's picture's change over the frames (:func:`depth_told`: the median
     radius is the ball's at one distance only)."""
     blur = 0.0 if blur_px is None else blur_px
-    systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3,
-                            small_fit_blurred_px(radius_px, blur)) \
-        if method == SMALL_BALL_FIT else edge_model_systematic_px(radius_px, blur_px)
+    if method == SMALL_BALL_FIT:
+        systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3,
+                                small_fit_blurred_px(radius_px, blur))
+    elif method == JOINT_FIT:
+        systematic = JOINT_FIT_SYSTEMATIC_REL * radius_px
+    else:
+        systematic = edge_model_systematic_px(radius_px, blur_px)
     compression = compression_px(jpeg_quality, bits_per_pixel)
     shadow = FOREIGN_REL_SD if foreign >= FOREIGN_WARNING else 0.0
     return math.hypot(math.hypot(radius_se_px, systematic, compression) / radius_px, shadow,
@@ -1072,6 +1094,7 @@ class JointFit(NamedTuple):
     sigma: float
     light: tuple[float, float]
     rms: float
+    radius_sd: float = math.nan  # the radius' formal SE (px) where the blur was free with it
 
 
 def _joint_pixels(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
@@ -1228,22 +1251,17 @@ def _lm_step(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, jtj: np.ndarray,
     return trial, float(-(grad @ step + 0.5 * step @ jtj @ step))
 
 
-def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str, ...]
-                 ) -> tuple[np.ndarray, np.ndarray, float] | None:
-    """The frames of ``every`` fitted together from ``q = (r, sigma, exposure, az, el)`` and
-    their centres ``c`` ``(n, 2)``: the entries of ``q`` ``names``d and every frame's centre
-    free (:func:`_bounded_lm` on the compiled model with the exact columns and its Jacobian,
-    whose columns are each frame's ``(cx, cy)``, then the free entries of ``q`` in order). The
-    best ``q``, centres and cost (half the sum of squares); None where the fit fails.
-
-    Each frame's centre is always free: held at the first joint fit's while the blur and light
-    were freed, the sweep's radii moved by up to 4 %."""
-    n = every.n_frames
-    idx = [_JOINT_NAMES.index(name) for name in names]
+def _joint_problem(every: _Pixels, q: np.ndarray, idx: list[int]
+                   ) -> tuple[Callable[[np.ndarray], tuple[np.ndarray, _Pixels]],
+                              Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]]:
+    """The frames of ``every`` fitted together as a function of ``x``: the entries ``idx`` of
+    ``q = (r, sigma, exposure, az, el)`` then every frame's centre. ``at(x)``: the full ``q``
+    and the pixels at those centres; ``fun_jac(x)``: the weighted residuals and their Jacobian
+    (the compiled model's, exact columns)."""
+    n, p = every.n_frames, len(idx)
     free = np.zeros(7, bool)
     free[:2] = True
     free[[2 + i for i in idx]] = True
-    p = len(idx)
 
     def at(x: np.ndarray) -> tuple[np.ndarray, _Pixels]:
         qx = q.copy()
@@ -1254,6 +1272,39 @@ def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str,
         res, jc = _evaluate(*at(x), free, True, True)
         return res, np.hstack([jc[:, 2 * n:], jc[:, :2 * n]])
 
+    return at, fun_jac
+
+
+def _joint_radius_sd(every: _Pixels, q: np.ndarray, c: np.ndarray) -> float:
+    """The Cramer-Rao bound (px) of the radius of the frames' joint fit at ``q = (r, sigma,
+    exposure, az, el)``, centres ``c``: the radius, the blur and every frame's centre free, the
+    linear coefficients (the shading, each frame's background levels) profiled out (the
+    compiled model's Jacobian is the variable projection's, :func:`._edge_kernel.varpro`),
+    the residuals' variance their mean square; inf where the information is singular. The
+    NumPy model's numerical derivatives, the coefficients as parameters and no ridge, gave the
+    same within 2 % on the scenes of docs/tracking.md §3, some 50 times slower."""
+    idx = [0, 1]
+    res, jac = _joint_problem(every, q, idx)[1](np.concatenate([q[idx], c.ravel()]))
+    dof = max(int(np.count_nonzero(every.weight)) - jac.shape[1], 1)
+    info = jac.T @ jac
+    if np.linalg.matrix_rank(info) < info.shape[0]:
+        return math.inf
+    return math.sqrt(max(float(np.linalg.inv(info)[0, 0]) * float(res @ res) / dof, 0.0))
+
+
+def _joint_solve(every: _Pixels, q: np.ndarray, c: np.ndarray, names: tuple[str, ...]
+                 ) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """The frames of ``every`` fitted together from ``q = (r, sigma, exposure, az, el)`` and
+    their centres ``c`` ``(n, 2)``: the entries of ``q`` ``names``d and every frame's centre
+    free (:func:`_bounded_lm` on the compiled model with the exact columns and its Jacobian,
+    whose columns are each frame's ``(cx, cy)``, then the free entries of ``q`` in order). The
+    best ``q``, centres and cost (half the sum of squares); None where the fit fails.
+
+    Each frame's centre is always free: held at the first joint fit's while the blur and light
+    were freed, the sweep's radii moved by up to 4 %."""
+    n, idx = every.n_frames, [_JOINT_NAMES.index(name) for name in names]
+    p = len(idx)
+    at, fun_jac = _joint_problem(every, q, idx)
     lo_q = np.array([0.75 * q[0], 0.5 * q[1], 0.0, q[3] - math.pi, 0.02])
     hi_q = np.array([1.3 * q[0], 2.0 * q[1] + 0.1, 1.0, q[3] + math.pi, 1.5])
     lo = np.concatenate([lo_q[idx], c.ravel() - 2.0])
@@ -1328,8 +1379,8 @@ def _joint_without_misfit(every: _Pixels, q: np.ndarray, c: np.ndarray) -> _Pixe
 
 
 def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float, float],
-                 kappa: np.ndarray | None, gains: Sequence[float] | None = None
-                 ) -> JointFit | None:
+                 kappa: np.ndarray | None, gains: Sequence[float] | None = None,
+                 blur_free: bool = False) -> JointFit | None:
     """The radius that fits the frames ``args`` (image, background, centre, velocity) best
     together: one radius, blur, light and shading of the ball (its linear coefficients) for
     all, that shading times each frame's gain ``gains`` (default 1: the frame's brightness
@@ -1363,24 +1414,13 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
     if joined is None:
         return None
     every, near_saturated = joined
-    # the joint cost has more than one minimum in the radius (a ball lit from the camera, 10
-    # px, blur 0.7 px, plain wall: at +0.4 and +4.3 %, the second reached from the frames'
-    # median): from the median and 4 % either side, the lowest kept
-    median = float(np.median([f.r for f in fits]))
-    starts = [_joint_solve(every, np.array([median * k, *held]),
-                           np.array([[f.cx, f.cy] for f in fits]), ("r",))
-              for k in JOINT_STARTS]
-    found = [s for s in starts if s is not None]
-    if not found:
+    if (first := _joint_first(every, fits, held)) is None:
         return None
-    q, c, cost = min(found, key=lambda s: s[2])
-    cleaner = _joint_without_misfit(every, q, c)
-    if cleaner is not None and (again := _joint_solve(cleaner, q, c, ("r",))) is not None:
-        every, (q, c, cost) = cleaner, again
+    every, (q, c, cost) = first
     out = JointFit(float(q[0]), c, float(q[1]), (float(q[3]), float(q[4])),
                    _rms(cost, every))
     if q[0] < SHADOW_MIN_RADIUS:
-        return out
+        return _small_blur_free(every, q, c) if blur_free else out
     if q[4] >= _NO_SHADOW:
         light = _joint_light(every, q, c)
         if light is None:  # no shadow: the blur as held (freed, it only scatters the radius)
@@ -1407,6 +1447,48 @@ def joint_radius(args, fits: Sequence[EdgeFit], held: tuple[float, float, float,
     q, c, cost = second
     az = math.remainder(float(q[3]), 2.0 * math.pi)  # the fit may carry it past +-pi
     return JointFit(float(q[0]), c, float(q[1]), (az, float(q[4])), _rms(cost, every))
+
+
+def _joint_first(every: _Pixels, fits: Sequence[EdgeFit],
+                 held: tuple[float, float, float, float]
+                 ) -> tuple[_Pixels, tuple[np.ndarray, np.ndarray, float]] | None:
+    """The first stage of :func:`joint_radius`: the radius alone free (and the centres), the
+    rest ``held``, from the frames' median radius and ``JOINT_STARTS`` of it (the joint cost
+    has more than one minimum in the radius: a ball lit from the camera, 10 px, blur 0.7 px,
+    plain wall, at +0.4 and +4.3 %, the second reached from the frames' median), the lowest
+    kept; then again without each frame's sectors that misfit under it
+    (:func:`_joint_without_misfit`). The pixels so weighted and the fit; None where it fails."""
+    median = float(np.median([f.r for f in fits]))
+    starts = [_joint_solve(every, np.array([median * k, *held]),
+                           np.array([[f.cx, f.cy] for f in fits]), ("r",))
+              for k in JOINT_STARTS]
+    found = [s for s in starts if s is not None]
+    if not found:
+        return None
+    q, c, cost = min(found, key=lambda s: s[2])
+    cleaner = _joint_without_misfit(every, q, c)
+    if cleaner is not None and (again := _joint_solve(cleaner, q, c, ("r",))) is not None:
+        return cleaner, again
+    return every, (q, c, cost)
+
+
+def _small_blur_free(every: _Pixels, q: np.ndarray, c: np.ndarray) -> JointFit | None:
+    """The frames of ``every`` fitted together with the radius and the blur free, from ``q``
+    and centres ``c``, for a small ball blurred by a large part of its radius: its
+    ``radius_sd`` the Cramer-Rao bound there (:func:`_joint_radius_sd`); None where the fit
+    fails or the wall's texture the ball hides gives less than ``JOINT_TEXTURE_GAIN`` of
+    that information (the bound with each frame's background made flat over the bound)."""
+    again = _joint_solve(every, q, c, ("r", "sigma"))
+    if again is None:
+        return None
+    q, c, cost = again
+    sd = _joint_radius_sd(every, q, c)
+    level = np.array([np.median(every.bg[every.frame == k]) for k in range(every.n_frames)])
+    flat = _joint_radius_sd(every._replace(bg=level[every.frame]), q, c)
+    if not flat >= JOINT_TEXTURE_GAIN * sd:
+        return None
+    return JointFit(float(q[0]), c, float(q[1]), (float(q[3]), float(q[4])), _rms(cost, every),
+                    sd)
 
 
 def _rms(cost: float, px: _Pixels) -> float:
@@ -1594,21 +1676,38 @@ def _held_cast(args, found: tuple[CastShadow, dict[int, np.ndarray], float],
 
 
 def _joint_alike(args, fits: list[EdgeFit], held: tuple[float, float, float, float],
-                 kappa: np.ndarray | None, gain: list[float], med: float, centres: np.ndarray
-                 ) -> tuple[float, tuple[float, float, float, float]]:
+                 kappa: np.ndarray | None, gain: list[float], med: float, centres: np.ndarray,
+                 blur_free: bool = False
+                 ) -> tuple[float, tuple[float, float, float, float], float | None]:
     """:func:`joint_radius` of the frames ``args`` whose fits ``fits`` are alike
-    (:func:`_alike`: a partly hidden ball's would pull them all): the radius and what the
-    frames share, its centres written into ``centres`` (one row per fit); ``med`` and
-    ``held`` as given where the joint fit fails or its blur is not the frames' (by
-    ``JOINT_BLUR_AGREE``: their look is not shared)."""
+    (:func:`_alike`: a partly hidden ball's would pull them all): the radius, what the
+    frames share and, where the blur was free with it (``blur_free``), the radius' standard
+    error, its centres written into ``centres`` (one row per fit); ``med``, ``held`` and None
+    as given where the joint fit fails or its blur is not the frames' (by
+    ``JOINT_BLUR_AGREE``: their look is not shared) or it misfits (``JOINT_RMS``)."""
     keep = _alike(fits)
     joint = joint_radius([args[k] for k in keep], [fits[k] for k in keep], held, kappa,
-                         [gain[k] for k in keep])
+                         [gain[k] for k in keep], blur_free)
     if joint is None or abs(joint.sigma / held[0] - 1.0) > JOINT_BLUR_AGREE or \
             joint.rms > JOINT_RMS * float(np.median([fits[k].rms for k in keep])):
-        return med, held
+        return med, held, None
     centres[keep] = joint.centres
-    return joint.radius, (joint.sigma, held[1], *joint.light)
+    se = joint.radius_sd if math.isfinite(joint.radius_sd) else None
+    return joint.radius, (joint.sigma, held[1], *joint.light), se
+
+
+def _more_frames(args: list, gain: list[float], first: dict[int, EdgeFit | None],
+                 inputs: _FrameInputs, moved: np.ndarray, cast: CastShadow | None, r0: float,
+                 kappa: np.ndarray | None, reach: float) -> tuple[list, list[float]]:
+    """``args`` and ``gain`` with the frames ``inputs`` added (their centres ``moved``, the
+    ball's shadow ``cast`` painted into their backgrounds), and free fits of them added to
+    ``first`` up to ``FIRST_FRAMES_BLURRED`` in all (from ``r0``, reading ``reach`` px)."""
+    *frames, extra_gains = inputs
+    extra, n = painted(_moved(zip(*frames, strict=True), moved), cast), len(args)
+    every: list[tuple[np.ndarray, np.ndarray, Any, Any]] = [*args, *extra]
+    for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
+        first[int(i)] = fit_edge(*every[int(i)], r0, kappa=kappa, reach=reach)
+    return every, gain + list(extra_gains)
 
 
 def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
@@ -1651,13 +1750,11 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
         plain, moved = _moved(plain, shift), moved + shift
         args, r0 = painted(plain, cast), float(np.median([f.r for f in ok]))
     blur = float(np.median([f.sigma for f in ok]) / np.median([f.r for f in ok]))
-    if more is not None and BLURRED <= blur <= MORE_FRAMES_MAX_BLUR:
+    # a small ball blurred by a large part of its radius: the frames together, blur free
+    wide = blur > MORE_FRAMES_MAX_BLUR and np.median([f.r for f in ok]) < SHADOW_MIN_RADIUS
+    if more is not None and BLURRED <= blur and (blur <= MORE_FRAMES_MAX_BLUR or wide):
         # blurred for its size: the blur the fits hold sets the radius; more frames for it
-        *inputs, extra_gains = more()
-        extra, n = painted(_moved(zip(*inputs, strict=True), moved), cast), len(args)
-        args, gain = args + extra, gain + list(extra_gains)
-        for i in n + spread(len(extra), FIRST_FRAMES_BLURRED - len(first)):
-            first[int(i)] = fit_edge(*args[int(i)], r0, kappa=kappa, reach=reach)
+        args, gain = _more_frames(args, gain, first, more(), moved, cast, r0, kappa, reach)
     held, r1 = _shared(args, first, r0, kappa, reach)
     second = _held_fits(args, first, r1, held, kappa)
     fits = [f for f in second if f is not None]
@@ -1666,11 +1763,15 @@ def fit_radius(frames: Sequence[np.ndarray], backgrounds: Sequence[np.ndarray],
     med, se = median_and_se(np.array([f.r for f in fits]))
     used = [i for i, f in enumerate(second) if f is not None]
     centres = np.array([[f.cx, f.cy] for f in fits])
-    if BLURRED <= held[0] / med <= MORE_FRAMES_MAX_BLUR:
-        # blurred for its size: the frames together (the SE stays the frames' scatter's)
-        med, held = _joint_alike([args[i] for i in used], fits, held, kappa,
-                                 [gain[i] for i in used], med, centres)
+    method = EDGE_MODEL
+    if BLURRED <= held[0] / med and (held[0] / med <= MORE_FRAMES_MAX_BLUR or wide):
+        # blurred for its size: the frames together (the SE stays the frames' scatter's, but
+        # for a small ball's whose blur was free with it: its Cramer-Rao bound)
+        med, held, joint_se = _joint_alike([args[i] for i in used], fits, held, kappa,
+                                           [gain[i] for i in used], med, centres, wide)
+        if joint_se is not None:
+            se, method = joint_se, JOINT_FIT
     return RadiusFit(med, se, held[0], held[1], float(np.median([f.rms for f in fits])),
-                     tuple(used), centres, light=held[2:], radii=tuple(f.r for f in fits),
-                     cast=cast)
+                     tuple(used), centres, light=held[2:], method=method,
+                     radii=tuple(f.r for f in fits), cast=cast)
 

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import EDGE_MODEL, SMALL_BALL_FIT, depth_told, radius_relative_sd
+from ._edge import EDGE_MODEL, JOINT_FIT, SMALL_BALL_FIT, depth_told, radius_relative_sd
 from ._track import Track
 
 
@@ -55,14 +55,15 @@ class Calibration:
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
         to which the systematic error of what measured it is added in quadrature
         (:func:`radius_relative_sd`: ``method`` ``"edge model"``, with the fitted blur
-        ``blur_px``, or ``"small-ball fit"``; ``Track.radius_fit.method``; and the frames'
-        JPEG quality, ``VideoSource.jpeg_quality``, or the video's bits per pixel,
+        ``blur_px``, ``"small-ball fit"`` or ``"frames' joint fit"``;
+        ``Track.radius_fit.method``; and the frames' JPEG quality,
+        ``VideoSource.jpeg_quality``, or the video's bits per pixel,
         ``VideoSource.bits_per_pixel``, where known; ``foreign``, the fraction of the
         frames fitted with sides of the rim left out, ``RadiusFit.foreign``; and ``depth``,
         how much the ball's picture grew over the frames, :func:`._edge.depth_told`)."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
-        method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT))
+        method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT, JOINT_FIT))
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
             rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method, jpeg_quality,

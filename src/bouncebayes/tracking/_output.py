@@ -467,6 +467,7 @@ def radius_warning(track: Track) -> str | None:
         EDGE_MODEL,
         FOREIGN_REL_SD,
         FOREIGN_WARNING,
+        JOINT_FIT,
         PSF_SHAPE_FROM,
         UNCERTAIN_RADIUS,
         UNRELIABLE_BLUR,
@@ -477,7 +478,7 @@ def radius_warning(track: Track) -> str | None:
     if fit is None:
         return ("the ball's radius is the median coverage radius (the edge model could not be "
                 "fitted): biased by blur and uneven light; give --reference")
-    if fit.sigma > UNRELIABLE_BLUR * fit.radius:
+    if fit.sigma > UNRELIABLE_BLUR * fit.radius and fit.method != JOINT_FIT:
         return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
                 "px: its radius, and the --ball-diameter scale, may be off by several percent "
                 "(the stated uncertainty allows for it); give --reference for a better scale")

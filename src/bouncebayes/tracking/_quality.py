@@ -36,8 +36,12 @@ RAMP = 1.5          # px, width of the disk's edge ramp in the comparison
 
 
 # a frame whose per-frame fit misfits by _refine.REFIT_FACTOR times the video's median is
-# flagged where it lies beyond that median by this fraction of the ball's contrast too
-REFIT_EXCESS = 0.35
+# flagged where it lies beyond that median by this fraction of the ball's contrast too (at
+# 0.35 until 2026-11-29, fifteenth session: the frame counter's scene of tests/test_tracking.py
+# then left a hidden frame 1.42 px off at 0.34, flagged at 0.38 before the edge model left
+# out the sectors that misfit; unblurred 10-15 px balls' frames reach 0.28, refit_misfit; the
+# 88 scenes of benchmarks/tracking_accuracy.py flag the same frames at 0.3 as at 0.35)
+REFIT_EXCESS = 0.3
 
 
 def refit_misfit(rms: np.ndarray | None, contrast: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import SMALL_BALL_FIT, RadiusFit, spread
+from ._edge import JOINT_FIT, SMALL_BALL_FIT, RadiusFit, spread
 from ._camera import stabilise
 from ._measure import CENTROID, EDGE_FIT, GAIN_GRID, NOT_FOUND, _edge_fit, _gain, _Searcher
 from ._quality import edge_offset, fit_ball_radius, frame_quality, refit_misfit
@@ -431,8 +431,11 @@ def _fit_ball(frames, state, given: bool, centre, radius, method, flag, contrast
             fit = fit._replace(centre_sd=max(fit.centre_sd, spread_px))
         else:
             # a small ball's radius is the small-ball fit's (at 5 px RMS error 1.7 % against
-            # the edge model's 3.6 %: SMALL_FIT_SYSTEMATIC_PX), and its light
-            if math.isfinite(small.radius_se):
+            # the edge model's 3.6 %: SMALL_FIT_SYSTEMATIC_PX), and its light; but not where
+            # its frames fitted together with the blur free held it (JOINT_FIT: 5 px under a
+            # 1.5 px blur on a textured wall, the small-ball fit at that blur -2.0 % where the
+            # joint fit was -0.6 %)
+            if math.isfinite(small.radius_se) and fit.method != JOINT_FIT:
                 fit = fit._replace(radius=small.radius, radius_se=small.radius_se,
                                    method=SMALL_BALL_FIT)
             if small.light is not None and small.light[1] < fit.light[1]:
