@@ -903,7 +903,8 @@ def test_a_small_glossy_balls_scale_under_a_blur_states_what_the_shading_can_do(
     # rim trades against the radius (measured 4.01 px, -19.8 %, the small-ball fit's fitted
     # blur 1.44 px; with the renderer's true blur held, -6 to -12 % on such scenes), stated
     # 12.5 %. On this textured wall the frames fitted together with the blur free
-    # (_edge._small_blur_free) hold it: measured -2.25 % at a fitted blur of 1.25 px
+    # (_edge._small_blur_free) hold it: measured -2.03 % at a fitted blur of 1.25 px (stated
+    # 2.1 %; -2.25 % without the wall's occlusion term, _edge.OCCLUSION_MIN_RADIUS)
     shot = pbr_shot(5.0, 1.2, 0.0, specular=1.2, shininess=30.0, limb_u=0.5, seed=0)
     track = track_ball(render(shot))
     cal = Calibration.from_track(shot.diameter_m, track)
