@@ -922,7 +922,7 @@ def _robust_solve(px: _Pixels, q: np.ndarray, fixed: np.ndarray, lo: np.ndarray,
     return q, px, res
 
 
-def sector_scores(px: _Pixels, q: np.ndarray, velocity, drop: np.ndarray | None
+def _sector_scores(px: _Pixels, q: np.ndarray, velocity, drop: np.ndarray | None
                   ) -> np.ndarray:
     """How far each polar sector of the rim misfits at ``q = (cx, cy, r, sigma, exposure,
     az, el)`` (:func:`._edge_kernel.sector_misfit`: the mean residual of its pixels inside the
@@ -945,13 +945,13 @@ def _without_misfit(px: _Pixels, q: np.ndarray, velocity, fixed: np.ndarray, lo:
                     ) -> tuple[np.ndarray, _Pixels, np.ndarray]:
     """The fit ``q`` (its pixels ``px``, residuals ``res``) again without the run of polar
     sectors about the worst where one misfits by more than ``EDGE_MISFIT`` of the ball's
-    contrast (:func:`sector_scores`, :func:`._edge_kernel.grow_run`), up to
+    contrast (:func:`_sector_scores`, :func:`._edge_kernel.grow_run`), up to
     ``MISFIT_ROUNDS`` times; the sectors left out added to ``drop``. A logo near the rim takes
     a bite out of it, which the radius follows (docs/tracking.md §1)."""
     from ._edge_kernel import MISFIT_ROUNDS, grow_run
 
     for _ in range(MISFIT_ROUNDS):
-        score = sector_scores(px, q, velocity, drop)
+        score = _sector_scores(px, q, velocity, drop)
         worst = int(np.argmax(np.abs(score)))
         if abs(score[worst]) <= EDGE_MISFIT or not grow_run(score, worst, drop):
             break
@@ -1360,7 +1360,7 @@ def _joint_light(every: _Pixels, q: np.ndarray, c: np.ndarray) -> tuple[float, f
 def _joint_without_misfit(every: _Pixels, q: np.ndarray, c: np.ndarray) -> _Pixels | None:
     """``every`` with each frame's run of polar sectors about its worst left out where that
     misfits by more than ``EDGE_MISFIT`` of the ball's contrast under the frames' joint fit
-    ``q = (r, sigma, exposure, az, el)``, centres ``c`` (:func:`sector_scores`; up to
+    ``q = (r, sigma, exposure, az, el)``, centres ``c`` (scored as :func:`_sector_scores`; up to
     ``MISFIT_ROUNDS`` runs a frame); None where no frame's does. One shading shared by the
     frames cannot take up a logo near the rim as each frame's own shading does."""
     from scipy.special import ndtr
