@@ -2,8 +2,9 @@
 
 ``benchmarks/tracking_accuracy.py`` renders blurs of 0, 0.7 and 1.5 px; at radius 5 px the
 tracker changes how it takes the radius between them (docs/tracking.md §1 and §3): the
-small-ball fit with the blur of the edge model's free fits held, or, above a fitted blur of a
-fifth of the radius on a textured wall, the frames fitted together with the blur free
+small-ball fit with the blur of the edge model's free fits held, or, above a fitted blur of
+``_edge.WIDE_BLUR`` (0.15) of the radius on a textured wall, the frames fitted together with the
+blur free
 (``"frames' joint fit"``). This sweep fills the gap: ``tests/render_pbr.py`` (independent of
 the tracker), 90-frame bounces in which the ball moves ~1.5 px a frame (as
 ``tracking_accuracy.py``'s scenes), radius 5 and 6.5 px x lens blur 1.0, 1.2, 1.5 px x

@@ -251,7 +251,7 @@ SMALL_FIT_BLURRED_FROM, SMALL_FIT_BLURRED_TO = 0.17, 0.25
 # Two glossy balls there, whose edge radius is 17 % small (fitted blur 0.42 of it), stay with
 # the edge model and its stated 28-30 %
 SMALL_FIT_BLUR = 0.4
-# A small ball (under SHADOW_MIN_RADIUS) blurred by more than MORE_FRAMES_MAX_BLUR of its radius:
+# A small ball (under SHADOW_MIN_RADIUS) blurred by more than WIDE_BLUR of its radius (below):
 # MAX_FRAMES_BLURRED frames fitted together with the radius and the blur free
 # (_small_blur_free). What tells the radius from the blur and the shading there is the wall's
 # texture the ball hides: the Cramer-Rao bound of the radius (25 frames, tests/render_pbr.py,
