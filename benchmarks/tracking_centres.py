@@ -43,6 +43,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from bouncebayes._io import write_json  # noqa: E402
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
 sys.path.insert(0, str(HERE))
@@ -158,10 +160,7 @@ def main(argv=None) -> dict:
               "summary": {mode: {name: summary(group, mode) for name, group in groups.items()}
                           for mode in ("centroid", "fitted")},
               "rows": rows}
-    RESULTS.parent.mkdir(exist_ok=True)
-    tmp = RESULTS.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(result, indent=1) + "\n")
-    tmp.replace(RESULTS)
+    write_json(RESULTS, result)  # atomic, as the package writes its results
     print(json.dumps(result["summary"]))
     return result
 

@@ -34,6 +34,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from bouncebayes._io import write_json  # noqa: E402
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -87,10 +89,7 @@ def main(argv=None) -> dict:
             print(json.dumps(row), file=sys.stderr, flush=True)
     result = {"benchmark": "tracking_small_blur", "renderer": "tests/render_pbr.py",
               "summary": summary(rows), "rows": rows, "numpy": np.__version__}
-    RESULTS.parent.mkdir(exist_ok=True)
-    tmp = RESULTS.with_suffix(".tmp")
-    tmp.write_text(json.dumps(result, indent=1) + "\n")
-    tmp.replace(RESULTS)
+    write_json(RESULTS, result)  # atomic, as the package writes its results
     print(json.dumps(result["summary"]))
     return result
 
