@@ -614,14 +614,15 @@ def lens_warning(video: TrackedVideo) -> str | None:
 
 def _lens_record(video: TrackedVideo) -> dict[str, object] | None:
     """The record's surface edge bow (px) with its SE, the least fraction of its pixels in a
-    third of its length, the division model's lambda with its SE, and the warning; None where
-    the edge was not read."""
+    third of its length, its vertex from the foot of the frame's centre (half-lengths), the
+    division model's lambda with its SE, and the warning; None where the edge was not read."""
     lens = video.lens
     if lens is None:
         return None
     return {"edge_sagitta_px": round(lens.sagitta_px, 3),
             "edge_sagitta_se_px": round(lens.sagitta_se_px, 3),
             "edge_length_px": round(lens.length_px, 1), "edge_spread": round(lens.spread, 3),
+            "edge_vertex": round(lens.vertex, 3) if math.isfinite(lens.vertex) else None,
             "division_lambda": round(lens.lam, 5), "division_lambda_se": round(lens.lam_se, 5),
             "undistorted": video.undistorted is not None, "warning": lens_warning(video)}
 
