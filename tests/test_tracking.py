@@ -357,7 +357,10 @@ def test_a_surface_edge_broken_by_a_textured_wall_is_found(monkeypatch):
     assert surface.angle == pytest.approx(-2.0, abs=3 * surface.angle_sd_deg + 0.05)
     u, v = surface.point
     assert v - (140.0 + u * math.tan(math.radians(2.0))) == pytest.approx(0.0, abs=1.0)
-    monkeypatch.setattr(_geometry, "BROKEN_GAPS", (6,))  # the search before: none
+    monkeypatch.setattr(_geometry, "BROKEN_GAPS", (6,))  # without the gaps bridged ...
+    step = detect_surface(bg, centres=centres, radius=12.0)  # ... the lines' steps find it
+    assert step.angle == pytest.approx(-2.0, abs=3 * step.angle_sd_deg + 0.05)
+    monkeypatch.setattr(_geometry, "_step_line", lambda *args: None)  # the search before: none
     assert detect_surface(bg, centres=centres, radius=12.0) is None
 
 
@@ -2666,6 +2669,32 @@ def test_the_surface_angles_se_holds_a_wall_texture_that_tilts_a_faint_edge():
     finally:
         geometry.OTHER_SMOOTH_PX = keep
     assert alone.angle == line.angle and abs(alone.angle + 2.0) > 5 * alone.angle_sd_deg
+
+
+def test_a_faint_step_that_makes_no_edge_is_found():
+    from render_pbr import Shot, Throw, render
+
+    import bouncebayes.tracking._geometry as geometry
+
+    # expected: the renderer's surface, at 1 degree (the angle -1: v points down). A faint
+    # step (a wall of 40 +- 8 grey levels over a plane of 32) makes no straight Canny edge;
+    # the lines pieced together over gaps found a line of the wall's texture that the ball
+    # passes, taken for the surface (the test of the test: more than 5 degrees off)
+    shot = Shot(width=240, height=140, radius_px=7.0, n_frames=90, surface_v=128.0,
+                slope_deg=1.0, wall=40.0, plane=32.0, texture=8.0, sigma_px=1.0, exposure=0.3,
+                supersample=3, codec="MJPG", seed=23,
+                throw=Throw(speed_in=2.5, angle_in=38.0, t_contact=0.045, x_contact=0.09))
+    background = np.median(render(shot), axis=0)
+    centres = shot.true_centres()
+    line = detect_surface(background, centres=centres, radius=7.0)
+    assert abs(line.angle + 1.0) < 3 * line.angle_sd_deg and line.angle_sd_deg < 0.3
+    keep = geometry._step_line
+    geometry._step_line = lambda *args: None
+    try:
+        texture = detect_surface(background, centres=centres, radius=7.0)
+    finally:
+        geometry._step_line = keep
+    assert abs(texture.angle + 1.0) > 5.0
 
 
 def _step_image(width: int, height: int, blur: float, wall, seed: int) -> np.ndarray:
