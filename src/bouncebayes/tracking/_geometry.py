@@ -232,7 +232,7 @@ CONTACT = 0.5
 def _step_line(img: np.ndarray, ball: np.ndarray, radius: float, min_length: float
                ) -> tuple[float, float, float, float] | None:
     """The strongest step of ``img`` (uint8; see ``STEP_BLUR_PX``) along a straight line
-    spanning ``min_length`` of its width, the ball's ``centres`` on one side of it
+    spanning ``min_length`` of its width, the ball's centres ``ball`` on one side of it
     (:func:`_beside`), bouncing off it (:func:`_bounces_off`) within ``CONTACT`` of its
     ``radius`` (px) and the same side brighter along ``SAME_SIDE`` of it; as a segment across
     the frame, or None. A Radon transform of the image, which OpenCV does not give: each
@@ -470,8 +470,8 @@ def _settle(point, direction, lo: float, hi: float, img: np.ndarray
             ) -> tuple[int, Surface, tuple[float, float], tuple[float, float], float, float] | None:
     """:func:`_subpixel`'s line read along ``point``, ``direction`` from ``lo`` to ``hi``,
     read again along the line it finds where that departs by ``SETTLE_PX`` or more at either
-    end (at most ``SETTLE_ROUNDS`` times); with the number of edge positions it was fitted to
-    first, and the line it was read along and its ends."""
+    end (at most ``SETTLE_ROUNDS`` times); with the number of edge positions the last read was
+    fitted to, that read's line, and the line it was read along and its ends."""
     for _ in range(SETTLE_ROUNDS):
         read = _read_line(point, direction, img, lo, hi)
         if read is None:
@@ -519,14 +519,16 @@ def _read_line(point: tuple[float, float], direction: tuple[float, float], img: 
     """The line through ``point`` along ``direction`` (a unit vector) fitted again to the
     edge's sub-pixel positions: at every pixel along it from
     ``lo`` to ``hi`` (px from its point), the image (smoothed by ``smooth_px``) read across it
-    out to ``SUBPIXEL_REACH`` px (in quarter pixels, cubic splines: read bilinearly the slope is
-    flat between pixels and its peak locks to them), and the peak of its slope, to a fraction of a
-    sample (the vertex of the parabola through the three samples about it), taken for the
-    edge; the positions whose peak is under half the median peak (the edge broken there) left
-    out; a Huber line through the rest, its angle's SE as :func:`_angle_sd`'s. None where
-    under 20 positions are left. The whole-pixel Canny edges gave rendered surfaces a line
-    flatter than the truth (their z mean +0.5 to +0.7); a centroid of the slope's strongest
-    part out to 4 px took in the wall's texture (a 240 x 120 clip: 0.13 degrees off)."""
+    out to ``reach`` px (default ``SUBPIXEL_REACH``; in quarter pixels, cubic splines: read
+    bilinearly the slope is flat between pixels and its peak locks to them), and the peak of
+    its slope, to a fraction of a sample (the vertex of the parabola through the three samples
+    about it), taken for the edge; the positions whose peak is under half the median peak (the
+    edge broken there) left out, and those the others do not agree with (:func:`_consensus`);
+    a Huber line through the rest, its angle's SE as :func:`_angle_sd`'s, and how many
+    positions it was fitted to. None where under 20 positions are left. The whole-pixel Canny
+    edges gave rendered surfaces a line flatter than the truth (their z mean +0.5 to +0.7); a
+    centroid of the slope's strongest part out to 4 px took in the wall's texture (a 240 x 120
+    clip: 0.13 degrees off)."""
     from scipy import ndimage
 
     smooth = cv2.GaussianBlur(img.astype(np.float32), (0, 0), smooth_px)

@@ -235,7 +235,7 @@ def _fit_frame(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
     dir_u, dir_v = (vx / speed, vy / speed) if speed > 0 else (1.0, 0.0)
     smear2 = (exposure * speed) ** 2 / 12.0
     base = sigma * sigma + 1.0 / 12.0
-    reach = r + REACH_PX + REACH_BLURS * math.sqrt(base + smear2)
+    reach = _reach(r, base + smear2)
     # the wall beyond the blurred rim, read to check it against the background (not fitted)
     band_from = r + BAND_BLURS * math.sqrt(base + smear2)
     gather = max(reach, band_from + BAND_PX)
@@ -413,9 +413,17 @@ def _fit_clean(frame, bg, gain, cx, cy, vx, vy, r, sigma, exposure, r_free, n_it
 def _in_frame(shape, cx, cy, r, sigma):
     """Whether the pixels a fit of a ball at ``(cx, cy)`` reads (:func:`_fit_frame`, without
     the exposure's smear) all lie in a frame of ``shape``."""
-    reach = r + REACH_PX + REACH_BLURS * math.sqrt(sigma * sigma + 1.0 / 12.0)
+    reach = _reach(r, sigma * sigma + 1.0 / 12.0)
     return (cx - reach >= 0.0 and cy - reach >= 0.0 and cx + reach <= shape[1] - 1.0
             and cy + reach <= shape[0] - 1.0)
+
+
+@njit(cache=True)
+def _reach(r, blur2):
+    """How far (px) from a ball's centre a fit reads (:func:`_fit_frame`): ``REACH_PX`` and
+    ``REACH_BLURS`` blurs beyond its radius ``r``, ``blur2`` the blur's variance (px^2: the
+    lens's, the pixel's and the exposure's smear)."""
+    return r + REACH_PX + REACH_BLURS * math.sqrt(blur2)
 
 
 @njit(cache=True)
