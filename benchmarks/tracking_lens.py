@@ -31,22 +31,16 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
 import itertools  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
-from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from bouncebayes._io import write_json  # noqa: E402
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-RESULTS = Path(__file__).resolve().parent / "results" / "tracking_lens.json"
 SCENES, LENSES, SEEDS = ("wide", "faint", "small"), (0.0, -0.08, -0.25, 0.1), (0, 1, 2, 3)
 
 
@@ -132,20 +126,10 @@ def summary(rows: list[dict]) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--jobs", type=int, default=2)
-    args = ap.parse_args(argv)
-    grid = list(itertools.product(SCENES, LENSES, SEEDS))
-    with ProcessPoolExecutor(args.jobs) as pool:
-        rows = []
-        for row in pool.map(clip, grid):
-            rows.append(row)
-            print(json.dumps(row), file=sys.stderr, flush=True)
-    result = {"benchmark": "tracking_lens", "renderer": "tests/render_pbr.py",
-              "summary": summary(rows), "rows": rows, "numpy": np.__version__}
-    write_json(RESULTS, result)  # atomic, as the package writes its results
-    print(json.dumps(result["summary"]))
-    return result
+    from _grid import run_grid
+
+    return run_grid("tracking_lens", __doc__.splitlines()[0], clip,
+                    list(itertools.product(SCENES, LENSES, SEEDS)), summary, argv)
 
 
 if __name__ == "__main__":

@@ -25,21 +25,15 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
 import itertools  # noqa: E402
-import json  # noqa: E402
 import sys  # noqa: E402
-from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from bouncebayes._io import write_json  # noqa: E402
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-RESULTS = Path(__file__).resolve().parent / "results" / "tracking_small_blur.json"
 RADII, BLURS, SEEDS, EXPOSURES = (5.0, 6.5), (1.0, 1.2, 1.5), (4, 5), (0.0, 0.5)
 LIGHTS = ("side", "glossy", "dark")
 
@@ -78,20 +72,10 @@ def summary(rows: list[dict]) -> dict:
 
 
 def main(argv=None) -> dict:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--jobs", type=int, default=2)
-    args = ap.parse_args(argv)
-    grid = list(itertools.product(RADII, BLURS, LIGHTS, SEEDS, EXPOSURES))
-    with ProcessPoolExecutor(args.jobs) as pool:
-        rows = []
-        for row in pool.map(scene, grid):
-            rows.append(row)
-            print(json.dumps(row), file=sys.stderr, flush=True)
-    result = {"benchmark": "tracking_small_blur", "renderer": "tests/render_pbr.py",
-              "summary": summary(rows), "rows": rows, "numpy": np.__version__}
-    write_json(RESULTS, result)  # atomic, as the package writes its results
-    print(json.dumps(result["summary"]))
-    return result
+    from _grid import run_grid
+
+    return run_grid("tracking_small_blur", __doc__.splitlines()[0], scene,
+                    list(itertools.product(RADII, BLURS, LIGHTS, SEEDS, EXPOSURES)), summary, argv)
 
 
 if __name__ == "__main__":
