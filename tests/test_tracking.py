@@ -622,6 +622,15 @@ def test_overlay_is_a_png_of_the_scaled_frame(clean, tmp_path):
                          calibration=Calibration(metres_per_px=1e-3, source="test"))
     img = cv2.imread(str(path))
     assert img.shape == (scene.height * 3, scene.width * 3, 3)  # zoomed to >= 800 px wide
+    # the legend, top right, names the surface line and axes (red, BGR (60, 60, 255)) where
+    # they are drawn, and only there
+    bare = cv2.imread(str(overlay_image(frames, track, tmp_path / "bare.png")))
+    legend = (slice(0, 100), slice(2 * scene.width, None))
+
+    def red(im):
+        return int(np.all(np.abs(im[legend].astype(int) - (60, 60, 255)) <= 30, axis=2).sum())
+
+    assert red(img) >= 10 and red(bare) == 0
 
 
 def test_the_overlays_circles_have_the_radius_that_sets_the_scale(tmp_path):

@@ -48,8 +48,8 @@ def overlay_image(frames: np.ndarray, track: Track, path: str | os.PathLike, *,
     left out by the kinematics), on the sampled frames a circle of the ball's radius (the edge
     model's, which sets a ``--ball-diameter`` scale; else each frame's coverage radius, which a
     blur inflates), the surface line and
-    plane axes (red; ``x`` along travel, ``y`` outward), a scale bar, a legend of the colours,
-    and the count of frames found and flagged. Written atomically.
+    plane axes (red; ``x`` along travel, ``y`` outward), a scale bar, a legend of the marks
+    drawn, and the count of frames found and flagged. Written atomically.
     """
     picks = _spaced_frames(track)
     img = _superpose(frames, track, picks)
@@ -61,7 +61,7 @@ def overlay_image(frames: np.ndarray, track: Track, path: str | os.PathLike, *,
         _draw_axes(out, track, surface, zoom)
     if calibration is not None:
         _draw_scale_bar(out, calibration, zoom)
-    _draw_legend(out, track)
+    _draw_legend(out, track, surface is not None and bool(track.found.any()))
     label = f"{title}  " if title else ""
     label += f"{int(track.found.sum())}/{len(track.found)} frames found"
     if track.flag.any():
@@ -112,8 +112,12 @@ def _px(p, zoom: int) -> tuple[int, int]:
 
 _COLOURS = {CENTROID: (80, 220, 80), EDGE_FIT: (0, 160, 255)}
 _FLAGGED = (255, 60, 255)
-_LEGEND = (("ball centre", _COLOURS[CENTROID]), ("cut by the frame edge", _COLOURS[EDGE_FIT]),
-           ("flagged (left out)", _FLAGGED))
+_SURFACE = (60, 60, 255)
+_LEGEND = (("ball centre", _COLOURS[CENTROID], "dot"),
+           ("cut by the frame edge", _COLOURS[EDGE_FIT], "dot"),
+           ("flagged (left out)", _FLAGGED, "dot"),
+           ("ball's radius (some frames)", (220, 220, 220), "ring"),
+           ("surface; plane axes x, y", _SURFACE, "line"))
 
 
 def _draw_track(out, track: Track, picks: np.ndarray, zoom: int) -> None:
@@ -127,18 +131,23 @@ def _draw_track(out, track: Track, picks: np.ndarray, zoom: int) -> None:
                        cv2.LINE_AA, 4)
 
 
-def _draw_legend(out, track: Track) -> None:
-    """The colours of the centres, top right (only the kinds present)."""
+def _draw_legend(out, track: Track, surface: bool) -> None:
+    """What the colours and marks mean, top right (only those drawn)."""
     present = [CENTROID in track.method, EDGE_FIT in track.method,
-               bool(track.flag.size and track.flag.any())]
+               bool(track.flag.size and track.flag.any()), bool(track.found.any()), surface]
     rows = [row for row, p in zip(_LEGEND, present, strict=True) if p]
+    if not rows:
+        return
     h, w = out.shape[:2]
-    width = max(cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)[0][0] for t, _ in rows)
+    width = max(cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)[0][0] for t, _, _ in rows)
     x0 = w - width - 30
     cv2.rectangle(out, (x0 - 6, 4), (w - 4, 10 + 18 * len(rows)), (0, 0, 0), -1)
-    for i, (text, colour) in enumerate(rows):
+    for i, (text, colour, glyph) in enumerate(rows):
         y = 18 + 18 * i
-        cv2.circle(out, (x0 + 5, y - 4), 5, colour, -1, cv2.LINE_AA)
+        if glyph == "line":
+            cv2.line(out, (x0, y - 4), (x0 + 11, y - 4), colour, 2, cv2.LINE_AA)
+        else:
+            cv2.circle(out, (x0 + 5, y - 4), 5, colour, -1 if glyph == "dot" else 1, cv2.LINE_AA)
         cv2.putText(out, text, (x0 + 16, y), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 1,
                     cv2.LINE_AA)
 
@@ -148,17 +157,17 @@ def _draw_axes(out, track: Track, surface: Surface, zoom: int) -> None:
     h, w = track.background.shape
     p = np.asarray(surface.point)
     length = float(np.hypot(w, h))
-    cv2.line(out, _px(p - length * e, zoom), _px(p + length * e, zoom), (60, 60, 255), 1,
+    cv2.line(out, _px(p - length * e, zoom), _px(p + length * e, zoom), _SURFACE, 1,
              cv2.LINE_AA, 4)
     first = track.centre[np.flatnonzero(track.found)[0]]
     origin = p + ((first - p) @ e) * e
     arrow = 0.12 * min(w, h)
     for axis, name in ((e, "x"), (n, "y")):
         tip = origin + arrow * axis
-        cv2.arrowedLine(out, _px(origin, zoom), _px(tip, zoom), (60, 60, 255), 2, cv2.LINE_AA,
+        cv2.arrowedLine(out, _px(origin, zoom), _px(tip, zoom), _SURFACE, 2, cv2.LINE_AA,
                         4, 0.15)
         cv2.putText(out, name, (int((tip[0] + 2) * zoom), int((tip[1] + 2) * zoom)),
-                    cv2.FONT_HERSHEY_SIMPLEX, 0.7, (60, 60, 255), 2, cv2.LINE_AA)
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.7, _SURFACE, 2, cv2.LINE_AA)
 
 
 def _draw_scale_bar(out, calibration: Calibration, zoom: int) -> None:
