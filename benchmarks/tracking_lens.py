@@ -1,7 +1,7 @@
 """The surface line and the lens read from it, on rendered clips with and without a lens.
 
 ``track_video`` finds the surface line in the background model (``detect_surface``) and reads
-the lens from the bow of its edge (``_lens.surface_bend``; docs/tracking.md §1). Both go wrong
+the lens from the bow of its edge (``_lens.bend``; docs/tracking.md §1). Both go wrong
 where a wall's texture makes edges of its own by a faint surface step. This benchmark renders
 (``tests/render_pbr.py``, independent of the tracker) three scenes x four lenses x four walls:
 
@@ -17,12 +17,15 @@ centre; k1 0, -0.08, -0.25, +0.1: another model than the division model the trac
 tracked (``track_ball``) and the surface and lens read as ``track_video`` reads them.
 
 For each: the surface's angle, its stated SD and, without a lens, z against the renderer's;
-the bow's sagitta, SE, explained variance, spread, vertex and lambda, and whether a lens is
-said. Summary per scene and lens: how many said a lens; without one, the surfaces' z RMS and
-largest |z|.
+the bow's sagitta, SE, explained variance, spread, vertex, coverage and lambda, whether a lens
+is said, the bow the lens gives the renderer's line (``true_sagitta``), and the share of 15
+small moves of the line given (0.3 px across, 0.1 degree turned; ``MOVES``) under which a lens
+is said: a call that flips under them is on a knife-edge. Summary per scene and lens: how many
+said a lens, the share under the moves and the clips whose call a move changes; the sagitta's
+RMS error; without a lens, the surfaces' z RMS and largest |z|.
 
 ``python benchmarks/tracking_lens.py [--jobs 2]`` writes
-``benchmarks/results/tracking_lens.json`` (~5 min on 2 cores).
+``benchmarks/results/tracking_lens.json`` (~10 min on 2 cores).
 """
 
 from __future__ import annotations
@@ -41,7 +44,9 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-SCENES, LENSES, SEEDS = ("wide", "faint", "small"), (0.0, -0.08, -0.25, 0.1), (0, 1, 2, 3)
+SCENES, LENSES, SEEDS = ("wide", "faint", "small"), (0.0, -0.08, -0.25, 0.1), tuple(range(8))
+# the line given moved across (px) and turned (degrees): is the lens said the same?
+MOVES = tuple(itertools.product((-0.3, 0.0, 0.3), (-0.1, -0.03, 0.0, 0.03, 0.1)))
 
 
 def shot_for(scene: str, seed: int):
@@ -81,12 +86,49 @@ def bent(frames: np.ndarray, k1: float) -> np.ndarray:
                      for f in frames])
 
 
+def true_sagitta(scene: str, k1: float, seed: int = 0) -> float:
+    """The bow (px) the lens gives the renderer's surface line, read as ``_lens.bend`` reads
+    it (a parabola across the chord of its part in the frame; positive for a barrel's): the
+    line's points mapped through ``r_d = r_u (1 + k1 r_u^2)``."""
+    shot = shot_for(scene, seed)
+    w, h = shot.width, shot.height
+    u = np.linspace(-0.3 * w, 1.3 * w, 4001)
+    v = shot.surface_v - math.tan(math.radians(shot.slope_deg)) * (u - w / 2)
+    xu, yu = (u - w / 2) / w, (v - h / 2) / w
+    g = 1 + k1 * (xu**2 + yu**2)
+    ud, vd = w / 2 + w * xu * g, h / 2 + w * yu * g
+    keep = (ud >= 0) & (ud <= w - 1) & (vd >= 0) & (vd <= h - 1)
+    ud, vd = ud[keep], vd[keep]
+    e = np.array([ud[-1] - ud[0], vd[-1] - vd[0]]) / math.hypot(ud[-1] - ud[0], vd[-1] - vd[0])
+    along = (ud - ud[0]) * e[0] + (vd - vd[0]) * e[1]
+    across = (ud - ud[0]) * e[1] - (vd - vd[0]) * e[0]
+    x = (along - along.mean()) / (0.5 * (along.max() - along.min()))
+    # signed as ``bend`` signs it: positive where the middle lies away from the frame's centre
+    cu, cv, mu, mv = (w - 1) / 2, (h - 1) / 2, ud.mean(), vd.mean()
+    towards = math.copysign(1.0, (cu - mu) * e[1] - (cv - mv) * e[0])
+    return float(np.polyfit(x, across, 2)[0]) * towards
+
+
+def said_moved(background: np.ndarray, line) -> float:
+    """The share of ``MOVES`` of the line given under which a lens is said."""
+    from bouncebayes.tracking._lens import bend
+
+    a0 = math.atan2(line.direction[1], line.direction[0])
+    said = []
+    for across, turn in MOVES:
+        a = a0 + math.radians(turn)
+        e = np.array([math.cos(a), math.sin(a)])
+        lens = bend(background, np.asarray(line.point) + across * np.array([-e[1], e[0]]), e)
+        said.append(lens is not None and lens.significant)
+    return float(np.mean(said))
+
+
 def clip(g: tuple) -> dict:
     """One clip: the surface and the lens as ``track_video`` reads them."""
     from render_pbr import render
 
     from bouncebayes.tracking import detect_surface, track_ball
-    from bouncebayes.tracking._lens import surface_bend
+    from bouncebayes.tracking._lens import bend
 
     scene, k1, seed = g
     shot = shot_for(scene, seed)
@@ -99,12 +141,14 @@ def clip(g: tuple) -> dict:
     truth = -shot.slope_deg  # the image's v points down
     row.update(angle_deg=round(line.angle, 4), angle_sd_deg=round(line.angle_sd_deg, 4),
                z=round((line.angle - truth) / line.angle_sd_deg, 2) if k1 == 0 else None)
-    lens = surface_bend(track.background, line.point, line.direction)
+    lens = bend(track.background, line.point, line.direction)
     if lens is not None:
         row.update(sagitta_px=round(lens.sagitta_px, 3), sagitta_se_px=round(lens.sagitta_se_px, 3),
                    explained=round(lens.explained, 3), spread=round(lens.spread, 3),
-                   vertex=round(getattr(lens, "vertex", math.nan), 3),
-                   lam=round(lens.lam, 4), said=bool(lens.significant))
+                   vertex=round(lens.vertex, 3), coverage=round(lens.coverage, 3),
+                   lam=round(lens.lam, 4), said=bool(lens.significant),
+                   said_moved=round(said_moved(track.background, line), 3),
+                   true_sagitta_px=round(true_sagitta(scene, k1, seed), 3))
     else:
         row["said"] = False
     return row
@@ -114,8 +158,15 @@ def summary(rows: list[dict]) -> dict:
     out = {}
     for scene, k1 in itertools.product(SCENES, LENSES):
         sel = [r for r in rows if r["scene"] == scene and r["k1"] == k1]
+        moved = [r["said_moved"] for r in sel if "said_moved" in r]
         entry = {"n": len(sel), "surface_found": sum(r["surface_found"] for r in sel),
-                 "lens_said": sum(bool(r.get("said")) for r in sel)}
+                 "lens_said": sum(bool(r.get("said")) for r in sel),
+                 "said_under_moves": round(float(np.mean(moved)), 3) if moved else None,
+                 "clips_whose_call_a_move_changes": sum(0 < m < 1 for m in moved)}
+        if k1 != 0.0:
+            err = [r["sagitta_px"] - r["true_sagitta_px"] for r in sel if "sagitta_px" in r]
+            entry["sagitta_error_rms_px"] = round(float(np.sqrt(np.mean(np.square(err)))), 3) \
+                if err else None
         if k1 == 0.0:
             z = np.array([r["z"] for r in sel if r.get("z") is not None])
             if z.size:

@@ -10,8 +10,12 @@ and 7 degrees, 30 px above the bottom of a 320 x 160 frame; noise of 1 grey leve
 120/60/20) x four seeds. The ball's centres are those of a bounce off the line (radius 9 px,
 41 frames), from the geometry alone.
 
-For each: the angle found, its stated SD, z against the truth; none where no surface is found.
-Summary per texture and contrast: how many found, the z RMS, how many beyond 3.
+For each: the angle found, its stated SD, z against the truth, whether a lens is said
+(``_lens.bend`` on the line found, as ``track_video`` reads it: there is none), and the share
+of the frame along which the edge lies on the line (``_geometry.edge_share``), under which
+``surface_warning`` says the line may be off; none where no surface is found. Summary per
+texture and contrast: how many found, the z RMS, how many beyond 3, how many said a lens and
+how many the surface warning; of those beyond 3, how many it warned of.
 
 ``python benchmarks/tracking_surface.py`` writes ``benchmarks/results/tracking_surface.json``
 (~1 min).
@@ -73,6 +77,8 @@ def scene(kind: str, contrast: tuple, seed: int, angle: float):
 
 def run() -> list[dict]:
     from bouncebayes.tracking import detect_surface
+    from bouncebayes.tracking._geometry import EDGE_SHARE, edge_share
+    from bouncebayes.tracking._lens import bend
 
     rows = []
     for kind, contrast, seed, angle in itertools.product(TEXTURES, CONTRASTS, SEEDS, ANGLES):
@@ -82,8 +88,12 @@ def run() -> list[dict]:
                "texture_sd": contrast[2], "seed": seed, "truth_deg": -angle,
                "found": line is not None}
         if line is not None:
+            lens = bend(img, line.point, line.direction)
             row.update(angle_deg=round(line.angle, 4), angle_sd_deg=round(line.angle_sd_deg, 4),
-                       z=round((line.angle + angle) / line.angle_sd_deg, 2))
+                       z=round((line.angle + angle) / line.angle_sd_deg, 2),
+                       lens_said=bool(lens is not None and lens.significant),
+                       edge_share=round(edge_share(img, line), 3),
+                       surface_said=bool(edge_share(img, line) < EDGE_SHARE))
         rows.append(row)
     return rows
 
@@ -96,11 +106,17 @@ def summary(rows: list[dict]) -> dict:
         out[f"{kind} {contrast[0]:g}/{contrast[1]:g} +- {contrast[2]:g}"] = {
             "n": len(sel), "found": int(z.size),
             "z_rms": round(float(np.sqrt(np.mean(z**2))), 2) if z.size else None,
-            "beyond_3": int(np.sum(np.abs(z) > 3))}
+            "beyond_3": int(np.sum(np.abs(z) > 3)),
+            "lens_said": sum(bool(r.get("lens_said")) for r in sel),
+            "surface_said": sum(bool(r.get("surface_said")) for r in sel)}
     z = np.array([r["z"] for r in rows if r["found"]])
     out["all"] = {"n": len(rows), "found": int(z.size),
                   "z_rms": round(float(np.sqrt(np.mean(z**2))), 2),
-                  "beyond_3": int(np.sum(np.abs(z) > 3))}
+                  "beyond_3": int(np.sum(np.abs(z) > 3)),
+                  "lens_said": sum(bool(r.get("lens_said")) for r in rows),
+                  "surface_said": sum(bool(r.get("surface_said")) for r in rows),
+                  "beyond_3_said": sum(bool(r.get("surface_said")) for r in rows
+                                       if r["found"] and abs(r["z"]) > 3)}
     return out
 
 

@@ -85,24 +85,26 @@ def trial_table(folder: Path, experiment, out: Path, *, log: Callable[[str], Non
                                    **fit_kwargs)
 
 
-EACH_VIDEO = ("frames", "lens", "depth")  # warnings `run` gives each video, not once for all
+EACH_VIDEO = ("frames", "lens", "surface", "depth")  # `run` says these for each video
 
 
 def _warnings(video, record: Path) -> dict[str, str | None]:
     """What the tracking of one video warns of (None: nothing): the scale (the record's
     ``ball.warning``), the compression, the tone curve and the flights' fall against the scale
     (``record``: its ``<name>.track.json``; e.g. a file whose frame rate is wrong), which `run`
-    says once for all the videos; lost or repeated frames, a lens that bends lines and a ball
-    that moves along the camera's axis, which it says for each (``EACH_VIDEO``)."""
+    says once for all the videos; lost or repeated frames, a lens that bends lines, a surface
+    edge that lies on its line along under half the frame and a ball that moves along the
+    camera's axis, which it says for each (``EACH_VIDEO``)."""
     from .tracking import (compression_warning, depth_warning, lens_warning, radius_warning,
-                           timing_warning, tone_curve_warning)
+                           surface_warning, timing_warning, tone_curve_warning)
 
     check = json.loads(record.read_text(encoding="utf-8"))["gravity"]
     fell = None if check is None or check["agrees"] else \
         check["summary"].replace("\n  warning: ", ": ")
     return {"scale": radius_warning(video.track), "compression": compression_warning(video.source),
             "tone curve": tone_curve_warning(video), "frames": timing_warning(video.track),
-            "lens": lens_warning(video), "depth": depth_warning(video.track), "fall": fell}
+            "lens": lens_warning(video), "surface": surface_warning(video),
+            "depth": depth_warning(video.track), "fall": fell}
 
 
 def _track_videos(data: Path, experiment, stage: Path, log, video: dict,

@@ -503,8 +503,8 @@ def _scale_note(trials) -> list[str]:
 def _tracking_section(folder: str | Path) -> list[str]:
     """Where the run tracked videos: one row per video from its tracking record (frames, the
     ball's radius, the scale with its stated SD, what the flights' fall says, the record's
-    warnings and notes in words: lost or repeated frames, a lens that bends lines, the
-    camera's motion, the colour channel) and the first
+    warnings and notes in words: lost or repeated frames, a lens that bends lines, a faint
+    surface edge, the camera's motion, the colour channel) and the first
     video's overlay image."""
     records = sorted((Path(folder) / "trajectories").glob("*.track.json"))
     if not records:
@@ -517,7 +517,8 @@ def _tracking_section(folder: str | Path) -> list[str]:
         moved = r["tracker"].get("camera_shift_max_px") or 0.0
         said = [w for w in (r["ball"].get("warning"), r.get("compression_warning"),
                             r.get("tone_curve_warning"), (r.get("timing") or {}).get("warning"),
-                            (r.get("lens") or {}).get("warning"), r["ball"].get("depth_warning"),
+                            (r.get("lens") or {}).get("warning"),
+                            (r.get("surface") or {}).get("warning"), r["ball"].get("depth_warning"),
                             None if fall is None or fall["agrees"] else fall["summary"],
                             f"the camera moved by up to {moved:.2g} px (the frames moved back)"
                             if moved else None, r.get("channel_note"),

@@ -226,8 +226,8 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
     from the ball's radius and that is unreliable or uncertain, and where the frames are
     strongly compressed); ``gravity``: the flights' fall against the scale, in words."""
     from ..tracking import (EDGE_FIT, camera_message, cast_message, compression_warning,
-                            depth_warning, lens_warning, radius_warning, timing_warning,
-                            tone_curve_warning)
+                            depth_warning, lens_warning, radius_warning, surface_warning,
+                            timing_warning, tone_curve_warning)
 
     src, tr, cal, srf = result.source, result.track, result.calibration, result.surface
     n, found = len(tr.found), int(tr.found.sum())
@@ -246,6 +246,7 @@ def summary_line(result, files: dict[str, Path], gravity: str | None = None) -> 
             + (f"\n  warning: {tone}" if (tone := tone_curve_warning(result)) else "")
             + (f"\n  warning: {timing}" if (timing := timing_warning(tr)) else "")
             + (f"\n  warning: {lens}" if (lens := lens_warning(result)) else "")
+            + (f"\n  warning: {line}" if (line := surface_warning(result)) else "")
             + (f"\n  warning: {depth}" if (depth := depth_warning(tr)) else "")
             + (f"\n  {camera}" if (camera := camera_message(tr)) else "")
             + (f"\n  {cast}" if (cast := cast_message(tr)) else "")

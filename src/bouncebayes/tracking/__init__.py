@@ -83,6 +83,7 @@ from ._output import radius_warning as radius_warning
 from ._output import camera_message as camera_message
 from ._output import LENS_MODES as LENS_MODES
 from ._output import lens_warning as lens_warning
+from ._output import surface_warning as surface_warning
 from ._output import cast_message as cast_message
 from ._output import depth_warning as depth_warning
 from ._output import timing_warning as timing_warning
@@ -115,7 +116,7 @@ __all__ = ["CENTROID", "CHANNELS", "EDGE_FIT", "IMAGE_SUFFIXES", "LENS_MODES", "
            "cast_message", "compression_warning", "depth_warning", "lens_warning",
            "detect_surface",
            "overlay_image", "plane_axes", "radius_warning", "read_frames", "read_image",
-           "timing_warning", "tone_curve_label", "tone_curve_warning",
+           "surface_warning", "timing_warning", "tone_curve_label", "tone_curve_warning",
            "to_plane_frame",
            "track_ball", "track_record", "track_video", "warm_kernels", "write_track_files"]
 

@@ -8,21 +8,22 @@ frames bent by ``r_d = r_u (1 - 0.25 r_u^2)``, ``r`` in units of the frame's wid
 centre: the surface edge bowed by 6 px) gave the incidence angle 1.75 degrees off, the
 speeds 1.4 SD off, and the flights' fall scattering beyond its errors, with no word of why.
 
-The surface's edge is straight on the plane and spans the frame: its edge pixels in the
-background model (:func:`_edge_pixels`), fitted by a parabola across the line (``bend``), show
-the bow. Where its sagitta is ``SAGITTA_PX`` or more, ``SIGNIFICANT`` standard errors, the
-bow the model below explains ``EXPLAINED`` of the pixels' scatter, the line is ``OFF_CENTRE``
-from the centre, its pixels spread along it (``SPREAD``) and the bow's vertex lies near the
-foot of the centre on it (``VERTEX``), the lens is said to bend lines, with the one-parameter
+The surface's edge is straight on the plane and spans the frame: its sub-pixel positions in the
+background model (:func:`_edge_positions`, :func:`_follow`), fitted by a parabola across the
+line (``bend``), show the bow. Where its sagitta is ``SAGITTA_PX`` or more, ``SIGNIFICANT``
+standard errors, the bow the model below explains ``EXPLAINED`` of the positions' scatter, the
+line is ``OFF_CENTRE`` from the centre, its positions spread along it (``SPREAD``), the bow's
+vertex lies near the foot of the centre on it (``VERTEX``) and the edge follows the bow along
+most of its length (``COVERAGE``), the lens is said to bend lines, with the one-parameter
 division model that makes the edge straight (Fitzgibbon 2001:
 ``x_u = c + (x_d - c) / (1 + lam r_d^2)``, ``c`` the frame's centre, ``r_d`` the distance from
 it in units of the half-diagonal) and what it means for the scale at the corners; and
 :func:`.track_video` (``lens="auto"``) undistorts the frames by that model (:func:`undistort`,
 the points given with them too: :func:`undistort_points`) and tracks them again. One edge fixes
 one parameter about an assumed centre (the principal point taken as the frame's centre, no
-higher orders): the same clip, its frames undistorted so, gave the incidence angle 40.12
-degrees for 40 (z 1.6; 38.25 as bent) and the rebound angle z 1.3; with ``k1 = -0.08``, the
-rebound angle z 0.6 (-4.8 as bent). A camera's own calibration (OpenCV's
+higher orders): the same clip, its frames undistorted so, gave the incidence angle 40.05
+degrees for 40 (z 0.5; 38.25 as bent) and the rebound angle z 0.8; with ``k1 = -0.08``, the
+rebound angle z 0.8 (-4.8 as bent). A camera's own calibration (OpenCV's
 ``calibrateCamera`` and ``undistort``) does better, and ``lens="none"`` takes frames so
 undistorted as they are. Written here because no library fits one plumb line in a tracked
 video's background.
@@ -37,12 +38,12 @@ import numpy as np
 
 SAGITTA_PX = 0.5    # the edge's bow (px) from which the lens is said to bend lines ...
 SIGNIFICANT = 5.0   # ... where it is this many standard errors too ...
-# ... and the division model straightening it explains EXPLAINED of the edge pixels' variance
-# across their line or more: a bow the lens makes is smooth and spans the edge; the texture of
-# a wall over a faint surface step (a dark 15 px ball's scene, benchmarks/tracking_accuracy.py:
-# Canny's edge in pieces with hooks) made, with the pixels within 2 px of a refitted parabola
-# (before _edge_pixels' RANSAC), a bow of 1.55 +- 0.31 px that explained 0.20 of it (now 0.28
-# +- 0.16 px, 0.02); a lens bending the rendered frames by 10 % at the corners, 0.92
+# ... and the division model straightening it explains EXPLAINED of the edge positions'
+# variance across their line or more: a bow the lens makes is smooth and spans the edge; the
+# texture of a wall over a faint surface step (a dark 15 px ball's scene,
+# benchmarks/tracking_accuracy.py: Canny's edge in pieces with hooks) made, with Canny's pixels
+# within 2 px of a refitted parabola (before _follow's RANSAC), a bow of 1.55 +- 0.31 px that
+# explained 0.20 of it; a lens bending the rendered frames by 10 % at the corners, 0.92
 EXPLAINED = 0.35
 # ... and the line lies OFF_CENTRE half-diagonals or more from the frame's centre at its
 # nearest: nearer, a lens bows a line too little to tell from an edge that wobbles (the
@@ -50,12 +51,13 @@ EXPLAINED = 0.35
 # the centre beside a plane's wavy stripes: a bow of 1.8-2.4 px, lambda -0.09, explained
 # 0.6-0.7; the rendered lens clips' surface: 0.36)
 OFF_CENTRE = 0.25
-# ... and each third of the edge's length holds SPREAD of the pixels that follow it or more: a
-# bow set by pixels at one end is not the lens's (a frame counter burned into the lower right
-# corner, tests/render_pbr.py's 320 x 200 clip over a faint surface step: its box's top edge,
-# 4 px under the surface, took 82 % of the pixels, 3 % in the first third, and read as a bow of
-# 7.3 +- 0.5 px, explained 0.89: the frames were "undistorted", the ball's radius came out
-# +7.7 % and its picture shrinking by 20 %; the rendered lens clips, four lenses: 0.24-0.33)
+# ... and each third of the edge's length holds SPREAD of the positions that follow it or more:
+# a bow set by positions at one end is not the lens's (a frame counter burned into the lower
+# right corner, tests/render_pbr.py's 320 x 200 clip over a faint surface step: its box's top
+# edge, 4 px under the surface, took 82 % of Canny's pixels, 3 % in the first third, and read
+# as a bow of 7.3 +- 0.5 px, explained 0.89: the frames were "undistorted", the ball's radius
+# came out +7.7 % and its picture shrinking by 20 %; the rendered lens clips, four lenses:
+# 0.24-0.33)
 SPREAD = 0.1
 # ... and the parabola's vertex lies within VERTEX half-lengths of the edge from the foot of
 # the perpendicular from the frame's centre on the line, where a lens centred on the frame puts
@@ -66,10 +68,20 @@ SPREAD = 0.1
 # "undistorted" and the radius came out +7 %. Its vertex lay 0.64 from the foot, the rendered
 # lenses' 0.01-0.25 on its larger scenes (24 clips) and up to 0.41 on the small one
 VERTEX = 0.45
-SEARCH_PX = 8.0   # the edge's pixels are looked for within this (px) of the line given ...
+# ... and the bow is followed by the edge over COVERAGE of the whole pixels along it that hold
+# a position or more: a lens bows the whole edge; the texture of a wall over a step no stronger
+# than it (benchmarks/tracking_surface.py's backgrounds, no lens: a step of 8 grey levels under
+# a texture of SD 8, isotropic or 1/f) can make a parabola that the positions follow over half
+# of the edge: 3 of its 143 surfaces read as bows of 2.0-4.3 px (explained 0.57-0.84; 12 read
+# from Canny's pixels, up to 6.1 px), followed over 0.44-0.53 of the edge; the rendered lenses
+# of benchmarks/tracking_lens.py (72 clips) 0.81-0.99
+COVERAGE = 0.7
+SEARCH_PX = 8.0   # the edge's positions are looked for within this (px) of the line given ...
+SMOOTH_PX = 1.0   # ... in the image smoothed by this (px) ...
+PEAK_SHARE = 0.25  # ... the slope's peaks this share of the median column's highest or more
 INLIER_PX = 1.0   # ... and are those within this of the parabola most of them lie on
-SAMPLES = 400     # ... of this many tried (_edge_pixels)
-CORRELATION_PX = 4.0  # neighbouring pixels of Canny's one-pixel-wide edge are not independent
+SAMPLES = 400     # ... of this many tried (_follow)
+CORRELATION_PX = 4.0  # neighbouring positions, read from the smoothed image, are not independent
 
 
 class LensBend(NamedTuple):
@@ -88,34 +100,71 @@ class LensBend(NamedTuple):
     off_centre: float = 1.0  # the line's least distance from the frame's centre, half-diagonals
     spread: float = 1.0 / 3.0  # the least fraction of the pixels in a third of the edge's length
     vertex: float = 0.0  # the bow's vertex from the foot of the centre on the line, half-lengths
+    coverage: float = 1.0  # the share of the edge's whole pixels along it that follow the bow
 
     @property
     def significant(self) -> bool:
         return abs(self.sagitta_px) >= SAGITTA_PX and self.explained >= EXPLAINED and \
             abs(self.sagitta_px) >= SIGNIFICANT * self.sagitta_se_px and \
-            self.off_centre >= OFF_CENTRE and self.spread >= SPREAD and self.vertex <= VERTEX
+            self.off_centre >= OFF_CENTRE and self.spread >= SPREAD and self.vertex <= VERTEX \
+            and self.coverage >= COVERAGE
 
 
-def _edge_pixels(edges: np.ndarray, point, direction) -> tuple[np.ndarray, np.ndarray]:
-    """The edge pixels ``(u, v)`` (``edges`` nonzero: their strength) that follow the line
-    through ``point`` along ``direction``: of those within ``SEARCH_PX`` of it, the ones
-    within ``INLIER_PX`` of the parabola across it that the strongest of them lie on (RANSAC:
-    ``SAMPLES`` parabolas through a pixel of each third of the edge, seeded, their pixels'
-    strength summed; the best refitted to its pixels once). Counted, not weighed, the pixels
-    of a plane's stripes parallel to the surface and wavy (tests/video_helpers.py: 1.5 px
-    over 250 px, 8 grey levels against the surface's 70) outnumbered the surface's and read
-    as a bow of 2 px. Refitting a parabola to the
-    pixels within 2 px of the last one instead went over to an edge 3.4 px beside the
-    surface's as the parabola turned (the lit strip along the surface of tests/video_helpers.py's
-    synthetic scenes: a bow of 1.9-4.9 px on straight edges), and a walk along the edge from
-    its middle wandered into a textured wall's edges (1.3 px on a straight one)."""
-    vs, us = np.nonzero(edges)
-    strength = edges[vs, us].astype(np.float64)
+def _edge_positions(img: np.ndarray, point, direction
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The step's edge positions ``(u, v)`` (px) near the line through ``point`` along
+    ``direction``, with their strength: at every pixel along the line where the frame holds
+    it, the image (smoothed by ``SMOOTH_PX``) read across it out to ``SEARCH_PX`` (in quarter
+    pixels, cubic splines), and every peak of its slope that rises as the surface's step does
+    (the sign of the slope on the line) and is ``PEAK_SHARE`` of the median column's highest
+    or more, to a fraction of a sample (the vertex of the parabola through three)."""
+    import cv2
+    from scipy import ndimage
+
+    img = np.asarray(img, dtype=np.float32)
+    smooth = cv2.GaussianBlur(img, (0, 0), SMOOTH_PX)
+    h, w = img.shape
     e = np.asarray(direction, dtype=float) / math.hypot(*direction)
-    along = (us - point[0]) * e[0] + (vs - point[1]) * e[1]
-    across = (us - point[0]) * e[1] - (vs - point[1]) * e[0]
-    band = np.abs(across) <= SEARCH_PX
-    a, d, us, vs, strength = along[band], across[band], us[band], vs[band], strength[band]
+    reach = math.ceil(math.hypot(w, h) + abs(point[0]) + abs(point[1]))
+    a = np.arange(-reach, reach + 1, dtype=np.float64)
+    s = np.arange(-SEARCH_PX, SEARCH_PX + 0.25, 0.25)
+    u = point[0] + a[:, None] * e[0] - s[None, :] * e[1]  # normal (-e[1], e[0])
+    v = point[1] + a[:, None] * e[1] + s[None, :] * e[0]
+    inside = (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
+    mid = len(s) // 2
+    on = inside[:, mid - 4:mid + 5].all(axis=1)  # the line within the frame, +-1 px
+    a, u, v, inside = a[on], u[on], v[on], inside[on]
+    prof = ndimage.map_coordinates(smooth, [v, u], order=3, mode="nearest")
+    slope = np.where(inside, np.gradient(prof, s, axis=1), 0.0)
+    slope *= np.sign(np.median(slope[:, mid - 4:mid + 5].mean(axis=1))) or 1.0
+    y0, y1, y2 = slope[:, :-2], slope[:, 1:-1], slope[:, 2:]
+    peak = (y1 >= y0) & (y1 > y2) & (y1 > 0) & (y0 - 2 * y1 + y2 < 0)
+    highest = np.where(peak, y1, 0.0).max(axis=1)
+    if not (highest > 0).any():
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    rows, cols = np.nonzero(peak & (y1 >= PEAK_SHARE * np.median(highest[highest > 0])))
+    p0, p1, p2 = y0[rows, cols], y1[rows, cols], y2[rows, cols]
+    across = s[cols + 1] + 0.25 * 0.5 * (p0 - p2) / (p0 - 2 * p1 + p2)
+    return (point[0] + a[rows] * e[0] - across * e[1], point[1] + a[rows] * e[1] + across * e[0],
+            p1)
+
+
+def _follow(u: np.ndarray, v: np.ndarray, strength: np.ndarray, point, direction
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Of the edge positions ``(u, v)``, those within ``INLIER_PX`` of the parabola across the
+    line through ``point`` along ``direction`` that the strongest of them lie on (RANSAC:
+    ``SAMPLES`` parabolas through a position of each third of the edge, seeded, their
+    positions' strength summed; the best refitted to its positions once). Counted, not weighed,
+    the edges of a plane's stripes parallel to the surface and wavy (tests/video_helpers.py:
+    1.5 px over 250 px, 8 grey levels against the surface's 70) outnumbered the surface's and
+    read as a bow of 2 px. Refitting a parabola to the positions within 2 px of the last one
+    instead went over to an edge 3.4 px beside the surface's as the parabola turned (the lit
+    strip along the surface of tests/video_helpers.py's synthetic scenes: a bow of 1.9-4.9 px on
+    straight edges), and a walk along the edge from its middle wandered into a textured wall's
+    edges (1.3 px on a straight one)."""
+    e = np.asarray(direction, dtype=float) / math.hypot(*direction)
+    a = (u - point[0]) * e[0] + (v - point[1]) * e[1]
+    d = (u - point[0]) * e[1] - (v - point[1]) * e[0]
     if a.size < 20:
         return np.zeros(0), np.zeros(0)
     lo, hi = float(a.min()), float(a.max())
@@ -123,7 +172,7 @@ def _edge_pixels(edges: np.ndarray, point, direction) -> tuple[np.ndarray, np.nd
               for k in range(3)]
     if any(t.size < 3 for t in thirds):
         return np.zeros(0), np.zeros(0)
-    rng = np.random.default_rng(0)  # seeded: the same pixels every time
+    rng = np.random.default_rng(0)  # seeded: the same positions every time
     picks = np.column_stack([rng.choice(t, SAMPLES) for t in thirds])
     x = (a - 0.5 * (lo + hi)) / max(0.5 * (hi - lo), 1.0)
     xs, ds = x[picks], d[picks]
@@ -138,7 +187,7 @@ def _edge_pixels(edges: np.ndarray, point, direction) -> tuple[np.ndarray, np.nd
         return np.zeros(0), np.zeros(0)
     refit = np.polyfit(x[inliers], d[inliers], 2)
     inliers = np.abs(d - np.polyval(refit, x)) <= INLIER_PX
-    return us[inliers].astype(float), vs[inliers].astype(float)
+    return u[inliers], v[inliers]
 
 
 def _off_line(u: np.ndarray, v: np.ndarray, lam: float, centre, scale: float) -> np.ndarray:
@@ -157,14 +206,19 @@ def _straightness(u: np.ndarray, v: np.ndarray, lam: float, centre, scale: float
     return float(np.sqrt(np.mean(_off_line(u, v, lam, centre, scale) ** 2)))
 
 
-def bend(edges: np.ndarray, point, direction) -> LensBend | None:
-    """The bow of the surface edge through ``point`` along ``direction`` (px) in the edge
-    image ``edges`` (nonzero on Canny's edge pixels of the background model: their gradient's
-    magnitude), or None where fewer than 50 edge pixels follow it."""
-    u, v = _edge_pixels(edges, point, direction)
+def bend(img: np.ndarray, point, direction) -> LensBend | None:
+    """The bow of the surface's step edge through ``point`` along ``direction`` (px) in
+    ``img`` (the background model), read from the edge's sub-pixel positions
+    (:func:`_edge_positions`, :func:`_follow`), or None where fewer than 50 follow it. Read
+    from Canny's whole-pixel edges instead, a 160 x 96 glossy clip's faint textured edge
+    (benchmarks/tracking_lens.py, "small") bowed by -1.8 to +1.8 px through a lens that bows
+    it by -0.9 px, and one without a lens flipped between straight and a pincushion bow of
+    1.5 px as its line moved by 0.03 degrees."""
+    found = _edge_positions(img, point, direction)
+    u, v = _follow(*found, point, direction)
     if u.size < 50:
         return None
-    centre, scale = _frame_centre(edges.shape)
+    centre, scale = _frame_centre(np.shape(img))
     e = np.asarray(direction, dtype=float) / math.hypot(*direction)
     along = (u - point[0]) * e[0] + (v - point[1]) * e[1]
     across = (u - point[0]) * e[1] - (v - point[1]) * e[0]
@@ -174,6 +228,8 @@ def bend(edges: np.ndarray, point, direction) -> LensBend | None:
     design = np.column_stack([np.ones_like(x), x, x * x])
     coef, *_ = np.linalg.lstsq(design, across, rcond=None)
     res = across - design @ coef
+    # the positions' robust scatter, no less than a whole pixel's rounding (as when the bow
+    # was read from Canny's pixels: the sub-pixel positions do not make the SE smaller)
     scatter = max(1.4826 * float(np.median(np.abs(res - np.median(res)))), 1 / math.sqrt(12))
     cov = np.linalg.inv(design.T @ design) * scatter ** 2 * CORRELATION_PX
     # the parabola's middle against its ends (x = 0 against x = +-1) is -coef[2] across the
@@ -198,19 +254,10 @@ def bend(edges: np.ndarray, point, direction) -> LensBend | None:
     spread = float(min(np.mean(x < -1 / 3), np.mean(np.abs(x) <= 1 / 3), np.mean(x > 1 / 3)))
     foot = ((centre[0] - point[0]) * e[0] + (centre[1] - point[1]) * e[1] - mid) / half
     vertex = abs(-0.5 * float(coef[1]) / float(coef[2]) - foot) if coef[2] != 0 else math.inf
+    steps = np.unique(np.rint((found[0] - point[0]) * e[0] + (found[1] - point[1]) * e[1]))
+    coverage = np.unique(np.rint(along)).size / steps.size
     return LensBend(sagitta, sagitta_se, 2.0 * half, lam, lam_se, explained, off, spread,
-                    vertex)
-
-
-def surface_bend(background: np.ndarray, point, direction) -> LensBend | None:
-    """:func:`bend` of the surface line through ``point`` along ``direction`` in the
-    background model's edges (Canny's, as the surface was found: ``_geometry.canny_edges``),
-    each weighed by its gradient's magnitude."""
-    from ._geometry import canny_edges
-
-    img = np.clip(np.asarray(background, dtype=np.float32), 0, 255).astype(np.uint8)
-    edges, _, grad = canny_edges(img)
-    return bend(np.where(edges > 0, grad + 1e-6, 0.0), point, direction)
+                    vertex, coverage)
 
 
 def _frame_centre(shape: tuple[int, ...]) -> tuple[np.ndarray, float]:

@@ -20,15 +20,17 @@ from .._io import write_json, write_with
 from .._validate import check_choice
 from .._version import __version__
 from ._geometry import (
+    EDGE_SHARE,
     Calibration,
     PlaneTrajectory,
     Surface,
     detect_surface,
+    edge_share,
     plane_axes,
     to_plane_frame,
 )
 from ._camera import motion_px, rounded, shift_frames
-from ._lens import LensBend, bend_message, surface_bend, undistort, undistort_points
+from ._lens import LensBend, bend, bend_message, undistort, undistort_points
 from ._measure import CENTROID, EDGE_FIT
 from ._tone import tone_curve_label
 from ._track import Track, TrackerConfig, background_model, timed_at_bounces, track_ball
@@ -243,7 +245,7 @@ def track_video(path: str | os.PathLike, *, fps: float | None = None,
     config = config or TrackerConfig()
     video = _tracked(source, config, ball_diameter, reference, surface, background, readout)
     # the surface edge's bow, read once: on the frames as they are
-    bent = surface_bend(video.track.background, video.surface.point, video.surface.direction)
+    bent = bend(video.track.background, video.surface.point, video.surface.direction)
     if lens == "none" or bent is None or not bent.significant:
         return dataclasses.replace(video, lens=bent)
     # a lens that bends lines: the frames, and what was given in their pixels, undistorted
@@ -615,6 +617,22 @@ def camera_message(track: Track) -> str | None:
             "camera_zoom in the record)")
 
 
+def surface_warning(video: TrackedVideo) -> str | None:
+    """In words, where the surface line was detected and the edge lies on it along under
+    ``EDGE_SHARE`` of the frame (:func:`._geometry.edge_share`): a faint edge, whose line may
+    be a texture's some degrees off; None otherwise, and for a line given by points."""
+    if video.surface.source != "detected":
+        return None
+    share = edge_share(video.track.background, video.surface)
+    if share >= EDGE_SHARE:
+        return None
+    return (f"surface: the edge lies on the line found along only {100 * share:.0f} % of the "
+            "frame: where the surface spans the frame, a faint edge, or a wall's texture taken "
+            "for it, can put the line some degrees off, beyond its stated SD. Check the red "
+            "line on the overlay against the surface, and give --surface X1,Y1,X2,Y2 (two "
+            "points on it, px) where it is off")
+
+
 def lens_warning(video: TrackedVideo) -> str | None:
     """In words, where the surface edge bows: a lens that bends straight lines
     (:func:`._lens.bend_message`); None where it does not clearly, or was not read."""
@@ -622,9 +640,10 @@ def lens_warning(video: TrackedVideo) -> str | None:
 
 
 def _lens_record(video: TrackedVideo) -> dict[str, object] | None:
-    """The record's surface edge bow (px) with its SE, the least fraction of its pixels in a
+    """The record's surface edge bow (px) with its SE, the least fraction of its positions in a
     third of its length, its vertex from the foot of the frame's centre (half-lengths), the
-    division model's lambda with its SE, and the warning; None where the edge was not read."""
+    share of the edge that follows it, the division model's lambda with its SE, and the
+    warning; None where the edge was not read."""
     lens = video.lens
     if lens is None:
         return None
@@ -632,6 +651,7 @@ def _lens_record(video: TrackedVideo) -> dict[str, object] | None:
             "edge_sagitta_se_px": round(lens.sagitta_se_px, 3),
             "edge_length_px": round(lens.length_px, 1), "edge_spread": round(lens.spread, 3),
             "edge_vertex": round(lens.vertex, 3) if math.isfinite(lens.vertex) else None,
+            "edge_coverage": round(lens.coverage, 3),
             "division_lambda": round(lens.lam, 5), "division_lambda_se": round(lens.lam_se, 5),
             "undistorted": video.undistorted is not None, "warning": lens_warning(video)}
 
@@ -713,7 +733,9 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
                         "relative_sd": _optional(cal.relative_sd, 6), "source": cal.source},
         "surface": {"point_px": list(srf.point), "direction": list(srf.direction),
                     "angle_deg": srf.angle, "angle_sd_deg": _optional(srf.angle_sd_deg, 6),
-                    "source": srf.source},
+                    "source": srf.source,
+                    "edge_share": round(edge_share(tr.background, srf), 3),
+                    "warning": surface_warning(video)},
         "quality": {"found": int(found.sum()), "flagged": int(tr.flag.sum()),
                     "flagged_frames": np.flatnonzero(tr.flag).tolist(),
                     "not_found_frames": np.flatnonzero(~found).tolist(),
