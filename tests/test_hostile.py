@@ -742,3 +742,31 @@ def test_an_overlap_beyond_hertz_validity_is_flagged(capsys):
     assert main(["simulate", "--speed", "20", "--angle", "0"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "exceeds 10% of the ball's radius" in err[0]
+
+
+def test_an_error_raised_in_a_worker_process_reaches_the_caller_whole(tmp_path):
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+
+    from bouncebayes._errors import InputFileError
+    from bouncebayes.inference._memory import MemoryBudgetError
+    from bouncebayes.kinematics import TrajectoryError, read_trajectory
+    from bouncebayes.model._history import BounceFailed
+
+    # A process pool (or Dask's workers) sends a worker's exception back pickled. Python
+    # rebuilds an exception by calling its class with its message alone, which these classes'
+    # own arguments refused: the caller got "TypeError: InputFileError.__init__() missing 1
+    # required positional argument" instead of the error (found by a benchmark's pool).
+    # Expected: each comes back with the same message and attributes
+    for error in (InputFileError("a.csv", "bad", line=3, field="t"),
+                  TrajectoryError("b.csv#1", "no crossing", reason="no_crossing"),
+                  BounceFailed(2, "did not separate"),
+                  MemoryBudgetError("the grid", 5e9, 2e9, "use fewer points")):
+        back = pickle.loads(pickle.dumps(error))
+        assert type(back) is type(error) and str(back) == str(error)
+        assert back.__dict__ == error.__dict__
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,x,y\n0,0,zero\n")
+    with ProcessPoolExecutor(1) as pool:
+        with pytest.raises(InputFileError, match=r"bad\.csv"):
+            pool.submit(read_trajectory, bad).result()

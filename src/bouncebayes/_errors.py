@@ -5,7 +5,26 @@ from __future__ import annotations
 import os
 
 
-class InputFileError(ValueError):
+def _rebuilt(cls: type, args: tuple, state: dict) -> BaseException:
+    """An exception of ``cls`` with ``args`` and attributes ``state``, its ``__init__`` not
+    called (:meth:`Rebuilt.__reduce__`)."""
+    error = cls.__new__(cls, *args)
+    error.args = args
+    error.__dict__.update(state)
+    return error
+
+
+class Rebuilt:
+    """A mixin for exceptions whose ``__init__`` takes other arguments than their message:
+    pickled (to and from a process pool's or Dask's workers) as their message and attributes.
+    Python's default rebuilds an exception by calling its class with ``args`` alone, which for
+    these raised a TypeError in the parent process instead of the error."""
+
+    def __reduce__(self):
+        return _rebuilt, (type(self), self.args, dict(self.__dict__))  # type: ignore[attr-defined]
+
+
+class InputFileError(Rebuilt, ValueError):
     """A problem in a user's file: names the file, and the line or field where known.
 
     Arguments:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 
+from .._errors import Rebuilt
+
 DEFAULT_MEMORY_BUDGET = 2 * 2**30  #: bytes; safe on a laptop with 4 GB or more
 MIN_MEMORY_BUDGET = 16 * 2**20
 #: Peak working memory of one simulated bounce inside one likelihood call (kernel inputs and
@@ -28,7 +30,7 @@ RESIDENT_SHARE = 0.5  #: share of the budget for what lives through the run
 WORK_SHARE = 0.5
 
 
-class MemoryBudgetError(ValueError):
+class MemoryBudgetError(Rebuilt, ValueError):
     """A request that cannot fit in the memory budget; ``needed`` and ``budget`` in bytes
     (``share``: the part of the budget this kind of request may use)."""
 

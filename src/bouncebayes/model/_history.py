@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._errors import Rebuilt
 from .._validate import check_scalar
 from . import _kernel as K
 from ._arrays import explain_invalid
@@ -15,7 +16,7 @@ from ._ode import sample, solve_with_segments
 from ._results import Bounces
 
 
-class BounceFailed(RuntimeError):
+class BounceFailed(Rebuilt, RuntimeError):
     """A single bounce asked for in detail could not be solved; ``status`` says why."""
 
     def __init__(self, status, message: str):

@@ -367,6 +367,30 @@ FOREIGN_WARNING = 0.5
 FOREIGN_REL_SD = 0.015
 
 
+# The exposure's smear is held as a Gaussian along the ball's motion (the module's docstring):
+# a box of the smear's length, which a Gaussian of its variance stands for while the smear is
+# short beside the radius. A phone's slow motion smears the ball further
+# (benchmarks/tracking_phone.py: a 10 px ball at 120-480 fps, exposures of 25-90 %): the
+# radius within -1.4..+0.6 % up to 0.75 radii of smear; by hand at 120 fps, 60-80 % (0.9-1.2
+# radii) -0.8..+4.2 % within its stated SD (1.9-6.6 %); at 1.3 radii (120 fps, 90 %) 11-12 %
+# too large, at stated SDs of 2.7-3.8 %. From
+# SMEAR_RADII of smear (the fitted exposure times the ball's median step, over the radius:
+# smear_radii) it is said, and the radius's relative SD is at least SMEAR_REL_SD
+SMEAR_RADII = 1.0
+SMEAR_REL_SD = 0.12
+
+
+def smear_radii(fit: RadiusFit | None, centre: np.ndarray) -> float:
+    """The exposure's smear of the ball over its radius: ``fit``'s exposure (a fraction of
+    the frame interval) times the median step between the found ``centre``s of consecutive
+    frames (px), over ``fit``'s radius; 0 without a fit or two consecutive frames."""
+    if fit is None or not math.isfinite(fit.exposure):
+        return 0.0
+    steps = np.hypot(*np.diff(np.asarray(centre, dtype=float), axis=0).T)
+    steps = steps[np.isfinite(steps)]
+    return float(fit.exposure * np.median(steps) / fit.radius) if steps.size else 0.0
+
+
 DEPTH_WARNING = 0.01  # the ball's picture larger or smaller by this fraction over the frames
 DEPTH_SD = 5.0        # fitted, and by this many SEs: it moves along the camera's axis (told)
 DEPTH_MIN_FRAMES = 5  # single-frame radii at least (a straight line through them)
@@ -406,7 +430,7 @@ def depth_is_told(change: tuple[float, float] | None) -> bool:
 def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | None,
                        method: str = EDGE_MODEL, jpeg_quality: float | None = None,
                        bits_per_pixel: float | None = None, foreign: float = 0.0,
-                       depth: float = 0.0) -> float:
+                       depth: float = 0.0, smear: float = 0.0) -> float:
     """The relative standard deviation of the ball's radius: its scatter across frames
     ``radius_se_px`` and the systematic error in quadrature: the edge model's
     (:func:`edge_model_systematic_px`), or ``SMALL_FIT_SYSTEMATIC_PX`` and the blur term
@@ -417,7 +441,8 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
     pixel); ``FOREIGN_REL_SD`` where ``foreign`` (the fraction of the frames fitted with
     sides of the rim left out, ``RadiusFit.foreign``) is ``FOREIGN_WARNING`` or more; and half
     of ``depth``, the ball's picture's change over the frames (:func:`depth_told`: the median
-    radius is the ball's at one distance only)."""
+    radius is the ball's at one distance only); at least ``SMEAR_REL_SD`` where the
+    exposure's ``smear`` is ``SMEAR_RADII`` radii or more (:func:`smear_radii`)."""
     blur = 0.0 if blur_px is None else blur_px
     if method == SMALL_BALL_FIT:
         systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3,
@@ -428,8 +453,9 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
         systematic = edge_model_systematic_px(radius_px, blur_px)
     compression = compression_px(jpeg_quality, bits_per_pixel)
     shadow = FOREIGN_REL_SD if foreign >= FOREIGN_WARNING else 0.0
-    return math.hypot(math.hypot(radius_se_px, systematic, compression) / radius_px, shadow,
-                      0.5 * depth)
+    rel = math.hypot(math.hypot(radius_se_px, systematic, compression) / radius_px, shadow,
+                     0.5 * depth)
+    return max(rel, SMEAR_REL_SD) if smear >= SMEAR_RADII else rel
 
 
 class RadiusFit(NamedTuple):

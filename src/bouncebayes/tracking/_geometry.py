@@ -11,7 +11,14 @@ import cv2
 import numpy as np
 
 from .._validate import check_choice, check_scalar
-from ._edge import EDGE_MODEL, JOINT_FIT, SMALL_BALL_FIT, depth_told, radius_relative_sd
+from ._edge import (
+    EDGE_MODEL,
+    JOINT_FIT,
+    SMALL_BALL_FIT,
+    depth_told,
+    radius_relative_sd,
+    smear_radii,
+)
 from ._track import Track
 
 
@@ -50,7 +57,8 @@ class Calibration:
                            method: str = EDGE_MODEL,
                            jpeg_quality: float | None = None,
                            bits_per_pixel: float | None = None,
-                           foreign: float = 0.0, depth: float = 0.0) -> Calibration:
+                           foreign: float = 0.0, depth: float = 0.0,
+                           smear: float = 0.0) -> Calibration:
         """The ball's known diameter (m) against its measured radius (px), e.g.
         ``Track.ball_radius``; ``radius_se_px`` its standard error (``Track.ball_radius_se``),
         to which the systematic error of what measured it is added in quadrature
@@ -59,15 +67,16 @@ class Calibration:
         ``Track.radius_fit.method``; and the frames' JPEG quality,
         ``VideoSource.jpeg_quality``, or the video's bits per pixel,
         ``VideoSource.bits_per_pixel``, where known; ``foreign``, the fraction of the
-        frames fitted with sides of the rim left out, ``RadiusFit.foreign``; and ``depth``,
-        how much the ball's picture grew over the frames, :func:`._edge.depth_told`)."""
+        frames fitted with sides of the rim left out, ``RadiusFit.foreign``; ``depth``,
+        how much the ball's picture grew over the frames, :func:`._edge.depth_told`; and
+        ``smear``, the exposure's smear over the radius, :func:`._edge.smear_radii`)."""
         diameter = check_scalar("ball diameter", diameter, unit="m", low=0.0, low_open=True)
         radius_px = check_scalar("ball radius", radius_px, unit="px", low=0.0, low_open=True)
         method = check_choice("method", method, (EDGE_MODEL, SMALL_BALL_FIT, JOINT_FIT))
         rel = None
         if radius_se_px is not None and math.isfinite(radius_se_px):
             rel = radius_relative_sd(radius_px, radius_se_px, blur_px, method, jpeg_quality,
-                                     bits_per_pixel, foreign, depth)
+                                     bits_per_pixel, foreign, depth, smear)
         return cls(metres_per_px=diameter / (2.0 * radius_px), source="ball diameter",
                    relative_sd=rel)
 
@@ -83,7 +92,7 @@ class Calibration:
                                       fit.method if fit is not None else EDGE_MODEL,
                                       jpeg_quality, bits_per_pixel,
                                       fit.foreign if fit is not None else 0.0,
-                                      depth_told(fit))
+                                      depth_told(fit), smear_radii(fit, track.centre))
 
 
 def _point(name: str, p) -> tuple[float, float]:

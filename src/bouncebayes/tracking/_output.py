@@ -31,6 +31,7 @@ from ._geometry import (
 )
 from ._camera import motion_px, rounded, shift_frames
 from ._lens import LensBend, bend, bend_message, undistort, undistort_points
+from ._edge import smear_radii
 from ._measure import CENTROID, EDGE_FIT
 from ._tone import tone_curve_label
 from ._track import Track, TrackerConfig, background_model, timed_at_bounces, track_ball
@@ -351,6 +352,8 @@ def _ball_record(tr: Track) -> dict[str, object]:
             "edge_frames": list(fit.frames) if fit is not None else [],
             "blur_sigma_px": _optional(fit.sigma, 3) if fit is not None else None,
             "exposure": _optional(fit.exposure, 3) if fit is not None else None,
+            # the exposure's smear over the radius (_edge.smear_radii)
+            "smear_radii": round(smear_radii(fit, tr.centre), 3),
             "edge_rms_grey": _optional(fit.rms, 3) if fit is not None else None,
             # the direction of the light whose shadow the edge model (or, for a small ball,
             # the small-ball fit) holds (degrees; 90: lit from the camera, no shadow at the rim)
@@ -470,6 +473,18 @@ def tone_curve_warning(video: TrackedVideo) -> str | None:
             "or --reference")
 
 
+def _smear_words(smear: float) -> str:
+    """:func:`radius_warning`'s sentence for a ball smeared by ``smear`` radii or more."""
+    from ._edge import SMEAR_REL_SD
+
+    return (f"the ball moves {smear:.2g} of its radius during an exposure: the edge model "
+            "holds the smear as a blur, which fails beyond about a radius (rendered: the "
+            "radius 11-12 % too large at 1.3 radii), so the --ball-diameter scale is "
+            f"uncertain by at least +-{100 * SMEAR_REL_SD:.0f} % (in its stated uncertainty) "
+            "and the centres by a pixel or more; give --reference, or film with a shorter "
+            "exposure (a faster shutter) or a higher frame rate")
+
+
 def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
     unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (blurred
@@ -480,6 +495,7 @@ def radius_warning(track: Track) -> str | None:
         FOREIGN_WARNING,
         JOINT_FIT,
         PSF_SHAPE_FROM,
+        SMEAR_RADII,
         UNCERTAIN_RADIUS,
         UNRELIABLE_BLUR,
         radius_relative_sd,
@@ -489,6 +505,8 @@ def radius_warning(track: Track) -> str | None:
     if fit is None:
         return ("the ball's radius is the median coverage radius (the edge model could not be "
                 "fitted): biased by blur and uneven light; give --reference")
+    if (smear := smear_radii(fit, track.centre)) >= SMEAR_RADII:
+        return _smear_words(smear)
     if fit.sigma > UNRELIABLE_BLUR * fit.radius and fit.method != JOINT_FIT:
         return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
                 "px: its radius, and the --ball-diameter scale, may be off by several percent "

@@ -93,7 +93,8 @@ N_ITER = 1           # Gauss-Newton steps per frame from the centre predicted fr
 #                      same accuracy, 1 less; benchmarks/paper_camera.py)
 PREDICT_PX = 0.5     # the prediction is used where within this of the centroid (not at impact)
 BACKWARD_PX = 1.0    # a fit this far from the prediction from the two frames after is tried again
-#                      from there (_backward)
+#                      from there (_backward) ...
+BACKWARD_REACH = 0.5  # ... where that lies within this many radii of the frame's centroid
 # a frame whose per-frame centre fit leaves an RMS residual over REFIT_FACTOR times the
 # video's median (and _quality.REFIT_EXCESS of the ball's contrast beyond it) is flagged:
 # part of the ball hidden by something in front of it that the background holds as well (a
@@ -508,15 +509,15 @@ def refine_frames(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free
             _store(out, cost, n, fit)
     fitted = cost[np.isfinite(cost)]
     if fitted.size:
-        _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z0, dzt, gt,
-                  dgt, az, el, nodes, inner, occlusion, cast, out, cost,
+        _backward(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter, z0,
+                  dzt, gt, dgt, az, el, nodes, inner, occlusion, cast, out, cost,
                   REFIT_FACTOR ** 2 * np.median(fitted))
     return out
 
 
 @njit(cache=True)
-def _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z0, dzt, gt,
-              dgt, az, el, nodes, inner, occlusion, cast, out, cost, trusted):
+def _backward(frames, bg, gains, idx, start, vel, r, sigma, exposure, r_free, n_iter, z0, dzt,
+              gt, dgt, az, el, nodes, inner, occlusion, cast, out, cost, trusted):
     """From the last frame back, each fit that failed or lies more than ``BACKWARD_PX`` from
     the centre predicted from the two frames after it is fitted again from that prediction
     (``n_iter + 1`` steps), and the new fit kept where its mean squared residual is lower;
@@ -526,7 +527,12 @@ def _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z
     The starts the forward pass has can all be wrong together: a ball entering the frame
     whose shadow on the wall merges with it (a dark 15 px ball: its frame-edge disk fits 5.5 px
     towards the shadow, and the fits from there 3.6-4.2 px off, nothing said; from the frames
-    after, 0.1 px). ``out`` and ``cost`` (:func:`refine_frames`) are written in place."""
+    after, 0.1 px). Not where the prediction lies more than ``BACKWARD_REACH`` radii from the
+    frame's centroid ``start``: across the bounce the two frames after predict the ball on
+    the rebound's line (a 240 fps clip, the ball 8.6 px a frame: the last frame before the
+    impact predicted 13 px off; its fit from there misfit less per pixel and was kept 9 px
+    off, and the frames before it followed, up to 27 px off, nothing said). ``out`` and
+    ``cost`` (:func:`refine_frames`) are written in place."""
     for n in range(len(idx) - 3, -1, -1):
         k = idx[n]
         if (idx[n + 1] != k + 1 or idx[n + 2] != k + 2 or math.isnan(out[n + 1, 0])
@@ -535,6 +541,8 @@ def _backward(frames, bg, gains, idx, vel, r, sigma, exposure, r_free, n_iter, z
         px = 2.0 * out[n + 1, 0] - out[n + 2, 0]
         py = 2.0 * out[n + 1, 1] - out[n + 2, 1]
         if not math.isnan(out[n, 0]) and math.hypot(px - out[n, 0], py - out[n, 1]) <= BACKWARD_PX:
+            continue
+        if math.hypot(px - start[n, 0], py - start[n, 1]) > BACKWARD_REACH * r:
             continue
         ok, fit = _fit_clean(frames[k], bg, gains[k], px, py, vel[n, 0], vel[n, 1], r, sigma,
                              exposure, r_free, n_iter + 1, z0, dzt, gt, dgt, az, el, nodes,
