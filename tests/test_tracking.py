@@ -1174,6 +1174,8 @@ def test_a_ball_smeared_over_more_than_its_radius_is_said_and_its_scale_widened(
     from bouncebayes.tracking._edge import (
         SMEAR_RADII,
         SMEAR_REL_SD,
+        SMEAR_SQ,
+        UNCERTAIN_RADIUS,
         RadiusFit,
         radius_relative_sd,
         smear_radii,
@@ -1182,7 +1184,8 @@ def test_a_ball_smeared_over_more_than_its_radius_is_said_and_its_scale_widened(
     # expected (by hand): exposure 0.9 of the interval, the ball 14.8 px a frame (a phone at
     # 120 fps), radius 10 px: smeared over 0.9 * 14.8 / 10 = 1.33 radii, where the rendered
     # radius came out 11-12 % too large at a stated 2.7-3.8 % (benchmarks/tracking_phone.py);
-    # at exposure 0.5, 0.74 radii: nothing changes. A frame not found (NaN) is skipped
+    # at exposure 0.5, 0.74 radii: SMEAR_SQ 0.74^2 in quadrature. A frame not found (NaN) is
+    # skipped
     centre = np.column_stack([14.8 * np.arange(20.0), np.full(20, 50.0)])
     centre[7] = np.nan
 
@@ -1192,11 +1195,17 @@ def test_a_ball_smeared_over_more_than_its_radius_is_said_and_its_scale_widened(
     assert smear_radii(fit(0.9), centre) == pytest.approx(1.332)
     assert smear_radii(fit(0.5), centre) == pytest.approx(0.74) and smear_radii(None, centre) == 0
     plain = radius_relative_sd(10.0, 0.02, 0.8)
-    assert plain < 0.05 and radius_relative_sd(10.0, 0.02, 0.8, smear=0.74) == plain
+    assert plain < 0.05 and radius_relative_sd(10.0, 0.02, 0.8, smear=0.74) == pytest.approx(
+        math.hypot(plain, SMEAR_SQ * 0.74**2))
     assert radius_relative_sd(10.0, 0.02, 0.8, smear=SMEAR_RADII) == SMEAR_REL_SD == 0.12
     smeared = SimpleNamespace(radius_fit=fit(0.9), centre=centre)
-    assert "moves 1.3 of its radius" in radius_warning(smeared)  # type: ignore[arg-type]
-    assert "--reference" in radius_warning(smeared)  # type: ignore[arg-type]
+    said = radius_warning(smeared)  # type: ignore[arg-type]
+    assert "moves 1.3 of its radius" in said and "+-12 %" in said and "--reference" in said
+    # at 0.74 radii the smear's share (2.5 %) is over UNCERTAIN_RADIUS: said, with its share
+    said = radius_warning(SimpleNamespace(radius_fit=fit(0.5), centre=centre))  # type: ignore
+    assert "moves 0.74 of its radius" in said and "+-2.5 %" in said and "pixel" not in said
+    # at 0.37 radii, 0.6 %: under it, not said for the smear
+    assert SMEAR_SQ * smear_radii(fit(0.5), centre / 2) ** 2 < UNCERTAIN_RADIUS
     cal = Calibration.from_track(0.0256, SimpleNamespace(  # type: ignore[arg-type]
         radius_fit=fit(0.9), centre=centre, ball_radius=10.0, ball_radius_se=0.02))
     assert cal.relative_sd == pytest.approx(SMEAR_REL_SD)
@@ -1733,8 +1742,10 @@ def test_the_scales_uncertainty_follows_what_measured_the_radius():
 
     from bouncebayes.tracking._edge import FOREIGN_REL_SD, depth_change
 
-    fit = SimpleNamespace(sigma=0.6, method="small-ball fit", foreign=0.0, frames=(), radii=())
-    track = SimpleNamespace(ball_radius=5.0, ball_radius_se=0.03, radius_fit=fit)
+    fit = SimpleNamespace(sigma=0.6, method="small-ball fit", foreign=0.0, frames=(), radii=(),
+                          exposure=0.0, radius=5.0)  # no smear (_edge.smear_radii)
+    track = SimpleNamespace(ball_radius=5.0, ball_radius_se=0.03, radius_fit=fit,
+                            centre=np.zeros((0, 2)))
     coded = Calibration.from_track(0.0256, track, None, 0.05)
     assert coded.metres_per_px == small.metres_per_px
     rel = math.hypot(0.03, SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * 0.6**3,
@@ -1742,21 +1753,22 @@ def test_the_scales_uncertainty_follows_what_measured_the_radius():
     assert coded.relative_sd == pytest.approx(rel)
     # sides of the rim left out in every frame fitted (a lamp's shadow): FOREIGN_REL_SD more
     shadowed = SimpleNamespace(**{**vars(track), "radius_fit": SimpleNamespace(
-        sigma=0.6, method="small-ball fit", foreign=1.0, frames=(), radii=())})
+        **{**vars(fit), "foreign": 1.0})})
     assert Calibration.from_track(0.0256, shadowed, None, 0.05).relative_sd == \
         pytest.approx(math.hypot(rel, FOREIGN_REL_SD))
     # the ball's picture growing 3 % over the frames fitted (it comes closer): half of it more
     frames = tuple(range(0, 90, 10))
-    closer = SimpleNamespace(**{**vars(track), "radius_fit": SimpleNamespace(
-        sigma=0.6, method="small-ball fit", foreign=0.0, frames=frames,
-        radii=tuple(5.0 * (1.0 + 0.03 * k / 80.0) for k in frames))})
+    closer = SimpleNamespace(**{**vars(track), "radius_fit": SimpleNamespace(**{
+        **vars(fit), "frames": frames,
+        "radii": tuple(5.0 * (1.0 + 0.03 * k / 80.0) for k in frames)})})
     growth = depth_change(frames, closer.radius_fit.radii)[0]
     assert growth == pytest.approx(0.03, rel=0.02)
     assert Calibration.from_track(0.0256, closer, None, 0.05).relative_sd == \
         pytest.approx(math.hypot(rel, 0.5 * growth))
     unfitted = Calibration.from_track(0.0256, SimpleNamespace(ball_radius=5.0,
                                                               ball_radius_se=0.03,
-                                                              radius_fit=None))
+                                                              radius_fit=None,
+                                                              centre=np.zeros((0, 2))))
     assert unfitted.relative_sd == pytest.approx(
         math.hypot(0.03, edge_model_systematic_px(5.0, None)) / 5.0)
 

@@ -372,10 +372,14 @@ FOREIGN_REL_SD = 0.015
 # short beside the radius. A phone's slow motion smears the ball further
 # (benchmarks/tracking_phone.py: a 10 px ball at 120-480 fps, exposures of 25-90 %): the
 # radius within -1.4..+0.6 % up to 0.75 radii of smear; by hand at 120 fps, 60-80 % (0.9-1.2
-# radii) -0.8..+4.2 % within its stated SD (1.9-6.6 %); at 1.3 radii (120 fps, 90 %) 11-12 %
-# too large, at stated SDs of 2.7-3.8 %. From
-# SMEAR_RADII of smear (the fitted exposure times the ball's median step, over the radius:
-# smear_radii) it is said, and the radius's relative SD is at least SMEAR_REL_SD
+# radii) -0.8..+4.2 %, and a clip whose ball came in at 17.5 px a frame, exposure 50 % (0.88
+# radii; 0.70 as fitted) +5.4 % at a stated 1.1 %; at 1.3 radii (120 fps, 90 %; 1.1 as
+# fitted) 11-12 % too large, at stated SDs of 2.7-3.8 %. So the radius's relative SD takes
+# SMEAR_SQ times the square of the smear in radii (the fitted exposure times the ball's
+# median step, over the radius: smear_radii) in quadrature (the box and the Gaussian differ
+# from their fourth moments on), and from SMEAR_RADII of smear it is said and at least
+# SMEAR_REL_SD
+SMEAR_SQ = 0.045
 SMEAR_RADII = 1.0
 SMEAR_REL_SD = 0.12
 
@@ -441,8 +445,9 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
     pixel); ``FOREIGN_REL_SD`` where ``foreign`` (the fraction of the frames fitted with
     sides of the rim left out, ``RadiusFit.foreign``) is ``FOREIGN_WARNING`` or more; and half
     of ``depth``, the ball's picture's change over the frames (:func:`depth_told`: the median
-    radius is the ball's at one distance only); at least ``SMEAR_REL_SD`` where the
-    exposure's ``smear`` is ``SMEAR_RADII`` radii or more (:func:`smear_radii`)."""
+    radius is the ball's at one distance only); ``SMEAR_SQ`` times the square of the
+    exposure's ``smear`` in radii (:func:`smear_radii`), and at least ``SMEAR_REL_SD`` where
+    that is ``SMEAR_RADII`` or more."""
     blur = 0.0 if blur_px is None else blur_px
     if method == SMALL_BALL_FIT:
         systematic = math.hypot(SMALL_FIT_SYSTEMATIC_PX, BLUR_PX3 * blur**3,
@@ -454,7 +459,7 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
     compression = compression_px(jpeg_quality, bits_per_pixel)
     shadow = FOREIGN_REL_SD if foreign >= FOREIGN_WARNING else 0.0
     rel = math.hypot(math.hypot(radius_se_px, systematic, compression) / radius_px, shadow,
-                     0.5 * depth)
+                     0.5 * depth, SMEAR_SQ * smear * smear)
     return max(rel, SMEAR_REL_SD) if smear >= SMEAR_RADII else rel
 
 

@@ -474,15 +474,18 @@ def tone_curve_warning(video: TrackedVideo) -> str | None:
 
 
 def _smear_words(smear: float) -> str:
-    """:func:`radius_warning`'s sentence for a ball smeared by ``smear`` radii or more."""
-    from ._edge import SMEAR_REL_SD
+    """:func:`radius_warning`'s sentence for a ball smeared by ``smear`` radii."""
+    from ._edge import SMEAR_RADII, SMEAR_REL_SD, SMEAR_SQ
 
+    far = smear >= SMEAR_RADII
+    share = max(SMEAR_SQ * smear * smear, SMEAR_REL_SD if far else 0.0)
     return (f"the ball moves {smear:.2g} of its radius during an exposure: the edge model "
-            "holds the smear as a blur, which fails beyond about a radius (rendered: the "
-            "radius 11-12 % too large at 1.3 radii), so the --ball-diameter scale is "
-            f"uncertain by at least +-{100 * SMEAR_REL_SD:.0f} % (in its stated uncertainty) "
-            "and the centres by a pixel or more; give --reference, or film with a shorter "
-            "exposure (a faster shutter) or a higher frame rate")
+            "holds the smear as a blur, which holds less well as the smear grows (rendered: "
+            "the radius 5 % too large at 0.9 radii, 11-12 % at 1.3), so the --ball-diameter "
+            f"scale is uncertain by +-{100 * share:.2g} % on that account (in its stated "
+            "uncertainty)" + (" and the centres by a pixel or more" if far else "")
+            + "; give --reference, or film with a shorter exposure (a faster shutter) or a "
+            "higher frame rate")
 
 
 def radius_warning(track: Track) -> str | None:
@@ -496,6 +499,7 @@ def radius_warning(track: Track) -> str | None:
         JOINT_FIT,
         PSF_SHAPE_FROM,
         SMEAR_RADII,
+        SMEAR_SQ,
         UNCERTAIN_RADIUS,
         UNRELIABLE_BLUR,
         radius_relative_sd,
@@ -505,7 +509,8 @@ def radius_warning(track: Track) -> str | None:
     if fit is None:
         return ("the ball's radius is the median coverage radius (the edge model could not be "
                 "fitted): biased by blur and uneven light; give --reference")
-    if (smear := smear_radii(fit, track.centre)) >= SMEAR_RADII:
+    smear = smear_radii(fit, track.centre)
+    if smear >= SMEAR_RADII or SMEAR_SQ * smear * smear > UNCERTAIN_RADIUS:
         return _smear_words(smear)
     if fit.sigma > UNRELIABLE_BLUR * fit.radius and fit.method != JOINT_FIT:
         return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
