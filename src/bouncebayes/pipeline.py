@@ -93,7 +93,7 @@ def _warnings(video, record: Path) -> dict[str, str | None]:
     ``ball.warning``), the compression, the tone curve and the flights' fall against the scale
     (``record``: its ``<name>.track.json``; e.g. a file whose frame rate is wrong), which `run`
     says once for all the videos; lost or repeated frames, a lens that bends lines, a surface
-    edge that lies on its line along under half the frame and a ball that moves along the
+    edge that lies on its line along little of the frame and a ball that moves along the
     camera's axis, which it says for each (``EACH_VIDEO``)."""
     from .tracking import (compression_warning, depth_warning, lens_warning, radius_warning,
                            surface_warning, timing_warning, tone_curve_warning)

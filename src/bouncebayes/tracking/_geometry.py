@@ -540,8 +540,8 @@ def _read_line(point: tuple[float, float], direction: tuple[float, float], img: 
     clip: 0.13 degrees off)."""
     (px, py), (dx, dy) = point, direction
     a = np.arange(math.ceil(lo), math.floor(hi) + 1, dtype=np.float64)
-    s, slope, inside = _slopes(point, direction, img, a, smooth_px, reach)
-    slope = np.abs(slope)
+    s, slope, in_frame = _slopes(point, direction, img, a, smooth_px, reach)
+    slope, inside = np.abs(slope), np.all(in_frame, axis=1)
     at = np.clip(slope.argmax(axis=1), 1, len(s) - 2)
     rows = np.arange(len(a))
     y0, y1, y2 = slope[rows, at - 1], slope[rows, at], slope[rows, at + 1]
@@ -572,10 +572,9 @@ def _slopes(point, direction, img: np.ndarray, a: np.ndarray, smooth_px: float =
             reach: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The image's slope across the line through ``point`` along ``direction`` (a unit
     vector; grey levels a px along its normal ``(-dy, dx)``): at the positions ``a`` along it
-    (px), the image smoothed by
-    ``smooth_px`` read out to ``reach`` px either side (default ``SUBPIXEL_REACH``) every
-    quarter pixel (cubic splines); with the offsets across it and whether each row of samples
-    lies in the frame."""
+    (px), the image smoothed by ``smooth_px`` read out to ``reach`` px either side (default
+    ``SUBPIXEL_REACH``) every quarter pixel (cubic splines); with the offsets across it and
+    whether each sample lies in the frame."""
     from scipy import ndimage
 
     smooth = cv2.GaussianBlur(img.astype(np.float32), (0, 0), smooth_px)
@@ -584,7 +583,7 @@ def _slopes(point, direction, img: np.ndarray, a: np.ndarray, smooth_px: float =
     s = np.arange(-reach, reach + 0.25, 0.25)
     u = px + a[:, None] * dx - s[None, :] * dy  # normal (-dy, dx)
     v = py + a[:, None] * dy + s[None, :] * dx
-    inside = ((u >= 0) & (u <= img.shape[1] - 1) & (v >= 0) & (v <= img.shape[0] - 1)).all(1)
+    inside = (u >= 0) & (u <= img.shape[1] - 1) & (v >= 0) & (v <= img.shape[0] - 1)
     prof = ndimage.map_coordinates(smooth, [v, u], order=3, mode="nearest")
     return s, np.gradient(prof, s, axis=1), inside
 
@@ -610,7 +609,8 @@ def edge_share(background: np.ndarray, surface: Surface) -> float:
     reach = math.hypot(*img.shape) + abs(surface.point[0]) + abs(surface.point[1])
     a = np.arange(-math.ceil(reach), math.ceil(reach) + 1, dtype=np.float64)
     direction = np.asarray(surface.direction, dtype=float) / math.hypot(*surface.direction)
-    s, slope, inside = _slopes(surface.point, tuple(direction), img, a)
+    s, slope, in_frame = _slopes(surface.point, tuple(direction), img, a)
+    inside = np.all(in_frame, axis=1)
     if not inside.any():
         return 0.0
     slope = slope[inside] * (np.sign(np.median(slope[inside, len(s) // 2])) or 1.0)

@@ -77,7 +77,6 @@ VERTEX = 0.45
 # of benchmarks/tracking_lens.py (72 clips) 0.81-0.99
 COVERAGE = 0.7
 SEARCH_PX = 8.0   # the edge's positions are looked for within this (px) of the line given ...
-SMOOTH_PX = 1.0   # ... in the image smoothed by this (px) ...
 PEAK_SHARE = 0.25  # ... the slope's peaks this share of the median column's highest or more
 INLIER_PX = 1.0   # ... and are those within this of the parabola most of them lie on
 SAMPLES = 400     # ... of this many tried (_follow)
@@ -114,28 +113,23 @@ def _edge_positions(img: np.ndarray, point, direction
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The step's edge positions ``(u, v)`` (px) near the line through ``point`` along
     ``direction``, with their strength: at every pixel along the line where the frame holds
-    it, the image (smoothed by ``SMOOTH_PX``) read across it out to ``SEARCH_PX`` (in quarter
-    pixels, cubic splines), and every peak of its slope that rises as the surface's step does
-    (the sign of the slope on the line) and is ``PEAK_SHARE`` of the median column's highest
-    or more, to a fraction of a sample (the vertex of the parabola through three)."""
-    import cv2
-    from scipy import ndimage
+    it, the image read across it out to ``SEARCH_PX`` (:func:`._geometry._slopes`: smoothed
+    as the surface line is read, in quarter pixels, cubic splines), and every peak of its
+    slope that rises as the surface's step does (the sign of the slope on the line) and is
+    ``PEAK_SHARE`` of the median column's highest or more, to a fraction of a sample (the
+    vertex of the parabola through three)."""
+    from ._geometry import _slopes
 
     img = np.asarray(img, dtype=np.float32)
-    smooth = cv2.GaussianBlur(img, (0, 0), SMOOTH_PX)
-    h, w = img.shape
     e = np.asarray(direction, dtype=float) / math.hypot(*direction)
-    reach = math.ceil(math.hypot(w, h) + abs(point[0]) + abs(point[1]))
+    reach = math.ceil(math.hypot(*img.shape) + abs(point[0]) + abs(point[1]))
     a = np.arange(-reach, reach + 1, dtype=np.float64)
-    s = np.arange(-SEARCH_PX, SEARCH_PX + 0.25, 0.25)
-    u = point[0] + a[:, None] * e[0] - s[None, :] * e[1]  # normal (-e[1], e[0])
-    v = point[1] + a[:, None] * e[1] + s[None, :] * e[0]
-    inside = (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
+    s, slope, inside = _slopes(point, (float(e[0]), float(e[1])), img, a, reach=SEARCH_PX)
     mid = len(s) // 2
     on = inside[:, mid - 4:mid + 5].all(axis=1)  # the line within the frame, +-1 px
-    a, u, v, inside = a[on], u[on], v[on], inside[on]
-    prof = ndimage.map_coordinates(smooth, [v, u], order=3, mode="nearest")
-    slope = np.where(inside, np.gradient(prof, s, axis=1), 0.0)
+    a, slope = a[on], np.where(inside[on], slope[on], 0.0)
+    if not a.size:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
     slope *= np.sign(np.median(slope[:, mid - 4:mid + 5].mean(axis=1))) or 1.0
     y0, y1, y2 = slope[:, :-2], slope[:, 1:-1], slope[:, 2:]
     peak = (y1 >= y0) & (y1 > y2) & (y1 > 0) & (y0 - 2 * y1 + y2 < 0)
@@ -154,14 +148,15 @@ def _follow(u: np.ndarray, v: np.ndarray, strength: np.ndarray, point, direction
     """Of the edge positions ``(u, v)``, those within ``INLIER_PX`` of the parabola across the
     line through ``point`` along ``direction`` that the strongest of them lie on (RANSAC:
     ``SAMPLES`` parabolas through a position of each third of the edge, seeded, their
-    positions' strength summed; the best refitted to its positions once). Counted, not weighed,
-    the edges of a plane's stripes parallel to the surface and wavy (tests/video_helpers.py:
-    1.5 px over 250 px, 8 grey levels against the surface's 70) outnumbered the surface's and
-    read as a bow of 2 px. Refitting a parabola to the positions within 2 px of the last one
-    instead went over to an edge 3.4 px beside the surface's as the parabola turned (the lit
-    strip along the surface of tests/video_helpers.py's synthetic scenes: a bow of 1.9-4.9 px on
-    straight edges), and a walk along the edge from its middle wandered into a textured wall's
-    edges (1.3 px on a straight one)."""
+    positions' strength summed; the best refitted to its positions once). Read from Canny's
+    pixels (before 2026-11-29), counted, not weighed, the edges of a plane's stripes parallel
+    to the surface and wavy (tests/video_helpers.py: 1.5 px over 250 px, 8 grey levels against
+    the surface's 70) outnumbered the surface's and read as a bow of 2 px. Refitting a parabola
+    to the positions within 2 px of the last one instead went over to an edge 3.4 px beside the
+    surface's as the parabola turned (the lit strip along the surface of
+    tests/video_helpers.py's synthetic scenes: a bow of 1.9-4.9 px on straight edges), and a
+    walk along the edge from its middle wandered into a textured wall's edges (1.3 px on a
+    straight one)."""
     e = np.asarray(direction, dtype=float) / math.hypot(*direction)
     a = (u - point[0]) * e[0] + (v - point[1]) * e[1]
     d = (u - point[0]) * e[1] - (v - point[1]) * e[0]

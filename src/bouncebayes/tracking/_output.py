@@ -490,8 +490,9 @@ def _smear_words(smear: float) -> str:
 
 def radius_warning(track: Track) -> str | None:
     """A sentence where the ball's radius from its edge, and so the scale from its diameter, is
-    unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (blurred
-    enough that the blur's shape matters, or a small ball); None where neither."""
+    unreliable (blurred for its size) or uncertain by more than ``UNCERTAIN_RADIUS`` (smeared
+    by its motion over much of its radius, blurred enough that the blur's shape matters, or a
+    small ball); None where neither."""
     from ._edge import (
         EDGE_MODEL,
         FOREIGN_REL_SD,
