@@ -495,3 +495,24 @@ def test_run_on_videos_says_for_each_where_frames_were_lost_or_the_ball_came_clo
     assert len(closer) == 1 and closer[0].startswith("  warning: closer.avi: the ball's picture")
     t = np.loadtxt(folder / "gaps.csv", delimiter=",", skiprows=1, usecols=0)
     assert np.isclose(t[9] - t[8], 2e-3) and np.isclose(t[8] - t[7], 1e-3)
+
+
+def test_a_runs_messages_about_its_tracks_name_the_videos_not_the_staging_folder(tmp_path):
+    """`run` tracks videos into its staging folder, which is gone when the run fails: its
+    messages named files there that no longer existed (".out.staging-.../trajectories/b1.csv:
+    no crossing"). Expected (by hand): each such path becomes the video's, "<video>'s track",
+    a bounce's "#k" kept; other paths and the words are left as they are."""
+    from bouncebayes.pipeline import _as_videos
+
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    (videos / "b1.avi").write_bytes(b"")
+    (videos / "frames").mkdir()
+    (videos / "frames" / "0001.png").write_bytes(b"")
+    tracks = tmp_path / ".out.staging-1-ab12cd34" / "trajectories"
+    said = _as_videos(tracks, videos)
+    assert said(f"{tracks / 'b1.csv'}: no crossing: the fitted flights do not cross") == \
+        f"{videos / 'b1.avi'}'s track: no crossing: the fitted flights do not cross"
+    assert said(f"{tracks / 'frames.csv'}#2: bad fit") == f"{videos / 'frames'}'s track#2: bad fit"
+    other = f"{tmp_path / 'other.csv'}: too few rows"
+    assert said(other) == other

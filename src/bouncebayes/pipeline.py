@@ -345,13 +345,38 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, video: dict, pr
                 "trial table does not hold: its speeds are taken as they are")
         shutil.copyfile(data, table)
         return load_trials(data, experiment)
-    folder = _track_videos(data, experiment, stage, log, video, progress) \
-        if kind == "videos" else data
-    _, results = trial_table(folder, experiment, table, log=log, progress=progress)
+    if kind == "videos":
+        folder = _track_videos(data, experiment, stage, log, video, progress)
+        said = _as_videos(folder, data)
+        try:
+            _, results = trial_table(folder, experiment, table, log=lambda m: log(said(m)),
+                                     progress=progress)
+        except InputFileError as exc:  # about the staging folder or a file in it
+            where = data if Path(exc.path) == folder else said(exc.path)
+            raise InputFileError(where, said(exc.reason), line=exc.line,
+                                 field=exc.field) from None
+    else:
+        _, results = trial_table(data, experiment, table, log=log, progress=progress)
     # the fitted kinematics go on as they are, not back through the file just written
     trials = trials_from_kinematics(results, experiment)
     return dataclasses.replace(trials, source=str(out / TRIALS_FILE),  # not the staging path
                                sha256=file_sha256(table), provenance=read_provenance(table))
+
+
+def _as_videos(tracks: Path, videos: Path) -> Callable[[str], str]:
+    """What names the trajectory files tracked into the staging folder ``tracks`` in a message
+    names instead the videos of ``videos`` they came from (``<video>'s track``): the staging
+    folder is gone when the run fails, and its files were never the user's."""
+    import re
+
+    names = {p.stem: p.name for p in video_inputs(videos)}
+    pattern = re.compile(re.escape(str(tracks)) + r"[/\\]([^/\\:#]+)\.csv")
+
+    def said(message: str) -> str:
+        return pattern.sub(lambda m: f"{videos / names.get(m.group(1), m.group(1))}'s track",
+                           message)
+
+    return said
 
 
 def _draw(result, prop, stage: Path, times: dict, log, record: dict,
