@@ -351,10 +351,11 @@ def _trials(data: Path, experiment, stage: Path, out: Path, log, video: dict, pr
         try:
             _, results = trial_table(folder, experiment, table, log=lambda m: log(said(m)),
                                      progress=progress)
-        except InputFileError as exc:  # about the staging folder or a file in it
-            where = data if Path(exc.path) == folder else said(exc.path)
-            raise InputFileError(where, said(exc.reason), line=exc.line,
-                                 field=exc.field) from None
+        except InputFileError as exc:  # about the staging folder or a file in it: the same
+            # error (a TrajectoryError keeps its reason), naming the videos
+            exc.args = (said(str(exc)).replace(str(folder), str(data)),)
+            exc.path = str(data) if Path(exc.path) == folder else said(exc.path)
+            raise
     else:
         _, results = trial_table(data, experiment, table, log=log, progress=progress)
     # the fitted kinematics go on as they are, not back through the file just written
