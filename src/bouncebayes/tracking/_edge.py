@@ -395,6 +395,12 @@ def smear_radii(fit: RadiusFit | None, centre: np.ndarray) -> float:
     return float(fit.exposure * np.median(steps) / fit.radius) if steps.size else 0.0
 
 
+def smear_share(smear: float) -> float:
+    """The radius's relative SD on account of the exposure's ``smear`` (radii): ``SMEAR_SQ``
+    times its square, and at least ``SMEAR_REL_SD`` from ``SMEAR_RADII`` on."""
+    return max(SMEAR_SQ * smear * smear, SMEAR_REL_SD if smear >= SMEAR_RADII else 0.0)
+
+
 DEPTH_WARNING = 0.01  # the ball's picture larger or smaller by this fraction over the frames
 DEPTH_SD = 5.0        # fitted, and by this many SEs: it moves along the camera's axis (told)
 DEPTH_MIN_FRAMES = 5  # single-frame radii at least (a straight line through them)
@@ -460,7 +466,7 @@ def radius_relative_sd(radius_px: float, radius_se_px: float, blur_px: float | N
     shadow = FOREIGN_REL_SD if foreign >= FOREIGN_WARNING else 0.0
     rel = math.hypot(math.hypot(radius_se_px, systematic, compression) / radius_px, shadow,
                      0.5 * depth, SMEAR_SQ * smear * smear)
-    return max(rel, SMEAR_REL_SD) if smear >= SMEAR_RADII else rel
+    return max(rel, smear_share(smear))
 
 
 class RadiusFit(NamedTuple):

@@ -475,15 +475,14 @@ def tone_curve_warning(video: TrackedVideo) -> str | None:
 
 def _smear_words(smear: float) -> str:
     """:func:`radius_warning`'s sentence for a ball smeared by ``smear`` radii."""
-    from ._edge import SMEAR_RADII, SMEAR_REL_SD, SMEAR_SQ
+    from ._edge import SMEAR_RADII, smear_share
 
-    far = smear >= SMEAR_RADII
-    share = max(SMEAR_SQ * smear * smear, SMEAR_REL_SD if far else 0.0)
     return (f"the ball moves {smear:.2g} of its radius during an exposure: the edge model "
             "holds the smear as a blur, which holds less well as the smear grows (rendered: "
             "the radius 5 % too large at 0.9 radii, 11-12 % at 1.3), so the --ball-diameter "
-            f"scale is uncertain by +-{100 * share:.2g} % on that account (in its stated "
-            "uncertainty)" + (" and the centres by a pixel or more" if far else "")
+            f"scale is uncertain by +-{100 * smear_share(smear):.2g} % on that account (in its "
+            "stated uncertainty)" + (" and the centres by a pixel or more"
+                                     if smear >= SMEAR_RADII else "")
             + "; give --reference, or film with a shorter exposure (a faster shutter) or a "
             "higher frame rate")
 
@@ -499,19 +498,17 @@ def radius_warning(track: Track) -> str | None:
         FOREIGN_WARNING,
         JOINT_FIT,
         PSF_SHAPE_FROM,
-        SMEAR_RADII,
-        SMEAR_SQ,
         UNCERTAIN_RADIUS,
         UNRELIABLE_BLUR,
         radius_relative_sd,
+        smear_share,
     )
 
     fit = track.radius_fit
     if fit is None:
         return ("the ball's radius is the median coverage radius (the edge model could not be "
                 "fitted): biased by blur and uneven light; give --reference")
-    smear = smear_radii(fit, track.centre)
-    if smear >= SMEAR_RADII or SMEAR_SQ * smear * smear > UNCERTAIN_RADIUS:
+    if smear_share(smear := smear_radii(fit, track.centre)) > UNCERTAIN_RADIUS:
         return _smear_words(smear)
     if fit.sigma > UNRELIABLE_BLUR * fit.radius and fit.method != JOINT_FIT:
         return (f"the ball is blurred by {fit.sigma:.2g} px for a radius of {fit.radius:.3g} "
@@ -645,10 +642,13 @@ def surface_warning(video: TrackedVideo) -> str | None:
     """In words, where the surface line was detected and the edge lies on it along under
     ``EDGE_SHARE`` of the frame (:func:`._geometry.edge_share`): a faint edge, whose line may
     be a texture's some degrees off; None otherwise, and for a line given by points."""
-    if video.surface.source != "detected":
-        return None
-    share = edge_share(video.track.background, video.surface)
-    if share >= EDGE_SHARE:
+    return _surface_words(video.surface.source,
+                          edge_share(video.track.background, video.surface))
+
+
+def _surface_words(source: str, share: float) -> str | None:
+    """:func:`surface_warning` for a line from ``source`` whose edge share is ``share``."""
+    if source != "detected" or share >= EDGE_SHARE:
         return None
     return (f"surface: the edge lies on the line found along only {100 * share:.0f} % of the "
             "frame: where the surface spans the frame, a faint edge, or a wall's texture taken "
@@ -735,6 +735,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
     n, h, w = src.frames.shape
     found = tr.found
     res = tr.residual[found] if tr.residual.size else np.zeros(0)
+    share = edge_share(tr.background, srf)
     return {
         "input": str(src.path),
         "bouncebayes_version": __version__,
@@ -758,8 +759,7 @@ def track_record(video: TrackedVideo, settings: dict, outputs: dict[str, Path]) 
         "surface": {"point_px": list(srf.point), "direction": list(srf.direction),
                     "angle_deg": srf.angle, "angle_sd_deg": _optional(srf.angle_sd_deg, 6),
                     "source": srf.source,
-                    "edge_share": round(edge_share(tr.background, srf), 3),
-                    "warning": surface_warning(video)},
+                    "edge_share": round(share, 3), "warning": _surface_words(srf.source, share)},
         "quality": {"found": int(found.sum()), "flagged": int(tr.flag.sum()),
                     "flagged_frames": np.flatnonzero(tr.flag).tolist(),
                     "not_found_frames": np.flatnonzero(~found).tolist(),
